@@ -1,0 +1,60 @@
+// Pinhole camera: intrinsics, image size and world-to-camera pose.
+//
+// Conventions (REP-103 optical frame): x right, y down, z forward; pixel
+// centres at integer coordinates, so the top-left pixel's centre is (0, 0).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <string>
+
+namespace amhmvs {
+
+struct PinholeCamera {
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  int width = 0, height = 0;
+  // World-to-camera: X_cam = R * X_world + t.
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+
+  Eigen::Matrix3d K() const;
+  Eigen::Vector3d center() const { return -R.transpose() * t; }
+  // Camera-to-world rotation's third column: the optical axis in the world.
+  Eigen::Vector3d viewingDirection() const { return R.row(2).transpose(); }
+  Eigen::Vector3d toCamera(const Eigen::Vector3d& world) const { return R * world + t; }
+  Eigen::Vector2d project(const Eigen::Vector3d& camera_point) const {
+    return {fx * camera_point.x() / camera_point.z() + cx,
+            fy * camera_point.y() / camera_point.z() + cy};
+  }
+  // Point at z-depth `depth` on the ray through pixel (u, v), camera frame.
+  Eigen::Vector3d backproject(double u, double v, double depth) const {
+    return {(u - cx) / fx * depth, (v - cy) / fy * depth, depth};
+  }
+  bool contains(const Eigen::Vector2d& pixel) const {
+    return pixel.x() >= -0.5 && pixel.y() >= -0.5 && pixel.x() < width - 0.5 &&
+           pixel.y() < height - 0.5;
+  }
+
+  // The camera of the same view resampled to (new_width, new_height), with K
+  // scaled about pixel centres: f' = f s, c' = (c + 0.5) s - 0.5.
+  PinholeCamera resized(int new_width, int new_height) const;
+
+  // Empty string when the camera is usable; otherwise what is wrong with it
+  // (non-positive or non-finite focal length, non-finite or non-rigid pose,
+  // bad image size).
+  std::string validate() const;
+};
+
+// Relative pose that maps reference-camera points into the source camera:
+// X_src = R_rel * X_ref + t_rel.
+struct RelativePose {
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+};
+RelativePose relativePose(const PinholeCamera& reference, const PinholeCamera& source);
+
+// Angle in radians between the rays from two camera centres to a world point.
+double triangulationAngle(const Eigen::Vector3d& center_a, const Eigen::Vector3d& center_b,
+                          const Eigen::Vector3d& point);
+
+}  // namespace amhmvs

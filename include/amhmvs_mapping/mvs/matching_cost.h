@@ -1,0 +1,145 @@
+// Bilaterally weighted NCC matching cost (paper eq. 15).
+//
+//   m(p, h(p)) = 1 - cov(p, h(p)) / sqrt(cov(p, p) cov(h(p), h(p)))
+//
+// with weighted means E(x) = sum w_i x_i / sum w_i over an 11x11 window
+// sampled every other row and column ("skipping"), and bilateral weights from
+// the reference image only:
+//
+//   w_i = exp(-|I_i - I_c| / (2 sigma_I^2) - |x_i - x_c| / (2 sigma_x^2)).
+//
+// The reference window's weights and moments depend on the pixel alone, so
+// they are computed once per pixel (ReferenceWindow) and reused for every
+// hypothesis and view. The source window is the reference window mapped by
+// the plane-induced homography H = K_s (R - t n^T / d) K_r^-1, built once per
+// (hypothesis, view) and stepped incrementally across the samples.
+#pragma once
+
+#include "amhmvs_mapping/mvs/hd.h"
+
+namespace amhmvs {
+namespace mvs {
+
+constexpr float kMaxCost = 2.0f;
+// Below this weighted variance (intensities 0..255) a window has no texture
+// and the cost is undefined: kMaxCost.
+constexpr float kMinVariance = 1e-5f;
+constexpr int kMaxWindowSamples = 64;
+
+struct CostParams {
+  int window_radius;
+  int window_step;
+  float sigma_color;
+  float sigma_spatial;
+};
+
+// Geometry of one source view relative to the reference camera:
+// A = K_s R K_r^-1 and b = K_s t, so that H = A - b q^T with q = K_r^-T n / d.
+struct SourceGeometry {
+  Mat3 A;
+  Vec3 b;
+  float width, height;  // in pixels
+};
+
+struct ReferenceWindow {
+  int count;                      // samples in the window
+  float weight[kMaxWindowSamples];  // normalised: sum = 1
+  float value[kMaxWindowSamples];   // intensity minus centre intensity
+  float mean, variance;           // weighted moments of `value`
+  bool textured;                  // variance >= kMinVariance
+};
+
+template <class Sampler>
+AMHMVS_HD void computeReferenceWindow(const Sampler& sampler, const CostParams& p, int x, int y,
+                                      ReferenceWindow* win) {
+  const float centre = sampler.reference(x, y);
+  const float color_scale = 1.0f / (2.0f * p.sigma_color * p.sigma_color);
+  const float spatial_scale = 1.0f / (2.0f * p.sigma_spatial * p.sigma_spatial);
+  int n = 0;
+  float weight_sum = 0.0f;
+  for (int dy = -p.window_radius; dy <= p.window_radius; dy += p.window_step) {
+    for (int dx = -p.window_radius; dx <= p.window_radius; dx += p.window_step) {
+      const float v = sampler.reference(x + dx, y + dy) - centre;
+      const float w = expf(-fabsf(v) * color_scale -
+                           sqrtf(static_cast<float>(dx * dx + dy * dy)) * spatial_scale);
+      win->weight[n] = w;
+      win->value[n] = v;
+      weight_sum += w;
+      ++n;
+    }
+  }
+  win->count = n;
+  float mean = 0.0f;
+  for (int i = 0; i < n; ++i) {
+    win->weight[i] /= weight_sum;
+    mean += win->weight[i] * win->value[i];
+  }
+  float variance = 0.0f;  // two-pass: exact for flat windows
+  for (int i = 0; i < n; ++i) {
+    const float c = win->value[i] - mean;
+    variance += win->weight[i] * c * c;
+  }
+  win->mean = mean;
+  win->variance = variance;
+  win->textured = variance >= kMinVariance;
+}
+
+// q = K_r^-T n / d: the homography's plane term for hypothesis `plane`.
+AMHMVS_HD Vec3 planeTerm(const Intrinsics& k, const Plane& plane) {
+  const float inv_d = 1.0f / plane.d;
+  return {plane.n.x / k.fx * inv_d, plane.n.y / k.fy * inv_d,
+          (plane.n.z - plane.n.x * k.cx / k.fx - plane.n.y * k.cy / k.fy) * inv_d};
+}
+
+// Cost of hypothesis `plane` at reference pixel (x, y) against source `view`.
+// kMaxCost when either window is textureless, when the window centre maps
+// outside the source image, or when the point is behind the source camera.
+template <class Sampler>
+AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
+                             const ReferenceWindow& win, const SourceGeometry& g, int view,
+                             Vec3 q, int x, int y) {
+  if (!win.textured) return kMaxCost;
+  // Rows of H = A - b q^T.
+  const Vec3 h0 = {g.A.m[0] - g.b.x * q.x, g.A.m[1] - g.b.x * q.y, g.A.m[2] - g.b.x * q.z};
+  const Vec3 h1 = {g.A.m[3] - g.b.y * q.x, g.A.m[4] - g.b.y * q.y, g.A.m[5] - g.b.y * q.z};
+  const Vec3 h2 = {g.A.m[6] - g.b.z * q.x, g.A.m[7] - g.b.z * q.y, g.A.m[8] - g.b.z * q.z};
+  const Vec3 pc = {static_cast<float>(x), static_cast<float>(y), 1.0f};
+  const float cz = dot(h2, pc);
+  if (!(cz > 0.0f)) return kMaxCost;  // behind the source camera
+  const float cu = dot(h0, pc) / cz, cv = dot(h1, pc) / cz;
+  if (!(cu >= -0.5f && cv >= -0.5f && cu < g.width - 0.5f && cv < g.height - 0.5f)) {
+    return kMaxCost;
+  }
+  float sum_s = 0.0f, sum_ss = 0.0f, sum_rs = 0.0f, shift = 0.0f;
+  int i = 0;
+  for (int dy = -p.window_radius; dy <= p.window_radius; dy += p.window_step) {
+    // Homogeneous source point of the row start, then stepped along x.
+    const Vec3 row = {pc.x - p.window_radius, pc.y + dy, 1.0f};
+    float hx = dot(h0, row), hy = dot(h1, row), hz = dot(h2, row);
+    const float step_x = h0.x * p.window_step, step_y = h1.x * p.window_step,
+                step_z = h2.x * p.window_step;
+    for (int dx = -p.window_radius; dx <= p.window_radius; dx += p.window_step) {
+      const float inv_z = 1.0f / hz;
+      float s = sampler.source(view, hx * inv_z, hy * inv_z);
+      if (i == 0) shift = s;  // centring keeps the float moments accurate
+      s -= shift;
+      const float w = win.weight[i];
+      sum_s += w * s;
+      sum_ss += w * s * s;
+      sum_rs += w * win.value[i] * s;
+      hx += step_x;
+      hy += step_y;
+      hz += step_z;
+      ++i;
+    }
+  }
+  const float var_s = sum_ss - sum_s * sum_s;
+  if (!(var_s >= kMinVariance)) return kMaxCost;
+  const float covariance = sum_rs - win.mean * sum_s;
+  const float ncc = covariance / sqrtf(win.variance * var_s);
+  const float cost = 1.0f - ncc;
+  return fminf(kMaxCost, fmaxf(0.0f, cost));
+}
+
+}  // namespace mvs
+}  // namespace amhmvs

@@ -1,0 +1,79 @@
+// Internal helpers shared by the readers and writers in src/io: whole-file
+// reads and writes that report failures as InputError naming the file.
+#pragma once
+
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "amhmvs_mapping/core/error.h"
+
+namespace amhmvs {
+namespace internal {
+
+inline std::string readFileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open file for reading (missing or unreadable)");
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw InputError(path + ": read error");
+  return bytes;
+}
+
+inline void writeFileBytes(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw InputError(path + ": cannot open file for writing");
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  out.close();
+  if (!out) throw InputError(path + ": write failed (disk full?)");
+}
+
+inline bool isLittleEndianHost() {
+  const uint16_t probe = 1;
+  return *reinterpret_cast<const uint8_t*>(&probe) == 1;
+}
+
+// Whole-token number parsing: false unless the token is entirely a finite
+// number (strtod alone would accept "3abc" and "nan").
+inline bool parseDouble(const std::string& token, double* value) {
+  if (token.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(token.c_str(), &end);
+  if (*end != '\0' || errno == ERANGE || !std::isfinite(v)) return false;
+  *value = v;
+  return true;
+}
+
+inline bool parseInt(const std::string& token, long long* value) {
+  if (token.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  const long long v = std::strtoll(token.c_str(), &end, 10);
+  if (*end != '\0' || errno == ERANGE) return false;
+  *value = v;
+  return true;
+}
+
+inline std::vector<std::string> splitWhitespace(const std::string& line) {
+  std::istringstream in(line);
+  std::vector<std::string> tokens;
+  std::string token;
+  while (in >> token) tokens.push_back(token);
+  return tokens;
+}
+
+// A line cut to a readable length for error messages.
+inline std::string excerpt(const std::string& text, size_t max_chars = 60) {
+  std::string s = text;
+  while (!s.empty() && (s.back() == '\r' || s.back() == ' ' || s.back() == '\t')) s.pop_back();
+  return s.size() <= max_chars ? s : s.substr(0, max_chars) + "...";
+}
+
+}  // namespace internal
+}  // namespace amhmvs

@@ -1,0 +1,125 @@
+#include "amhmvs_mapping/mvs/depth_estimator.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "amhmvs_mapping/core/error.h"
+#include "backends.h"
+
+namespace amhmvs {
+
+const char* backendName(Backend backend) {
+  switch (backend) {
+    case Backend::kAuto: return "auto";
+    case Backend::kCuda: return "cuda";
+    default: return "cpu";
+  }
+}
+
+Backend parseBackend(const std::string& name) {
+  if (name == "auto") return Backend::kAuto;
+  if (name == "cuda") return Backend::kCuda;
+  if (name == "cpu") return Backend::kCpu;
+  throw InputError("backend '" + name + "' is not one of auto, cuda, cpu");
+}
+
+std::string DepthProblem::validate() const {
+  std::ostringstream why;
+  auto check_view = [&](const std::string& label, const PinholeCamera& camera,
+                        const ImageU8& image) {
+    const std::string camera_problem = camera.validate();
+    if (!camera_problem.empty()) {
+      why << label << ": " << camera_problem << "\n";
+    } else if (image.channels != 1) {
+      why << label << ": image must be 8-bit grey (1 channel), has " << image.channels << "\n";
+    } else if (!image.sameSize(camera.width, camera.height)) {
+      why << label << ": image is " << image.width << "x" << image.height
+          << " but its camera is " << camera.width << "x" << camera.height << "\n";
+    }
+  };
+  check_view("reference view", reference_camera, reference_image);
+  if (source_cameras.size() != source_images.size()) {
+    why << source_cameras.size() << " source cameras but " << source_images.size()
+        << " source images\n";
+  }
+  if (source_cameras.empty()) why << "no source views: at least 1 is needed\n";
+  if (source_cameras.size() > static_cast<size_t>(kMaxSourceViews)) {
+    why << source_cameras.size() << " source views; at most " << kMaxSourceViews
+        << " are supported\n";
+  }
+  for (size_t i = 0; i < std::min(source_cameras.size(), source_images.size()); ++i) {
+    check_view("source view " + std::to_string(i), source_cameras[i], source_images[i]);
+    if ((source_cameras[i].center() - reference_camera.center()).norm() <= 0.0) {
+      why << "source view " << i << ": same camera centre as the reference (no baseline)\n";
+    }
+  }
+  if (!(std::isfinite(depth_min) && std::isfinite(depth_max) && depth_min > 0 &&
+        depth_max > depth_min)) {
+    why << "depth range [" << depth_min << ", " << depth_max
+        << "] is empty, inverted, non-positive or not finite\n";
+  }
+  return why.str();
+}
+
+namespace mvs {
+
+PatchMatchParams makePatchMatchParams(const PatchMatchOptions& o, const DepthProblem& problem) {
+  PatchMatchParams p{};
+  const PinholeCamera& ref = problem.reference_camera;
+  p.width = ref.width;
+  p.height = ref.height;
+  p.num_sources = static_cast<int>(problem.source_cameras.size());
+  p.K = {static_cast<float>(ref.fx), static_cast<float>(ref.fy), static_cast<float>(ref.cx),
+         static_cast<float>(ref.cy)};
+  p.depth_min = static_cast<float>(problem.depth_min);
+  p.depth_max = static_cast<float>(problem.depth_max);
+  p.min_normal_cos = std::cos(o.max_normal_angle_deg * static_cast<float>(M_PI) / 180.0f);
+  p.seed = o.random_seed;
+  p.heuristic_view_selection = o.view_selection == ViewSelectionScheme::kHeuristicTopK;
+  p.bisection_only_iterations = o.bisection_only_iterations;
+  p.bisection_steps = o.bisection_steps;
+  p.perturbation = o.perturbation;
+  p.cost = {o.window_radius, o.window_step, o.sigma_color, o.sigma_spatial};
+  p.selection = {o.tau_mc_init, o.tau_alpha, o.tau_up, o.beta, o.n1, o.n2, o.top_k,
+                 o.best_view_boost, o.previous_selection_weight, o.heuristic_k};
+  p.pattern = makePropagationPattern(o.propagation);
+  const Eigen::Matrix3d k_ref_inv = ref.K().inverse();
+  for (int j = 0; j < p.num_sources; ++j) {
+    const PinholeCamera& src = problem.source_cameras[j];
+    const RelativePose rel = relativePose(ref, src);
+    const Eigen::Matrix3d A = src.K() * rel.R * k_ref_inv;
+    const Eigen::Vector3d b = src.K() * rel.t;
+    SourceGeometry& g = p.sources[j];
+    for (int i = 0; i < 9; ++i) g.A.m[i] = static_cast<float>(A(i / 3, i % 3));
+    g.b = {static_cast<float>(b.x()), static_cast<float>(b.y()), static_cast<float>(b.z())};
+    g.width = static_cast<float>(src.width);
+    g.height = static_cast<float>(src.height);
+  }
+  return p;
+}
+
+}  // namespace mvs
+
+DepthEstimator::DepthEstimator(const PatchMatchOptions& options, Backend backend)
+    : options_(options), backend_(backend) {
+  const std::string problems = options.validate();
+  if (!problems.empty()) throw InputError("invalid estimator options:\n" + problems);
+  std::string description;
+  const bool cuda = mvs::cudaDeviceUsable(&description);
+  if (backend_ == Backend::kAuto) backend_ = cuda ? Backend::kCuda : Backend::kCpu;
+  if (backend_ == Backend::kCuda && !cuda) {
+    throw BackendError("CUDA backend requested but unavailable: " + description);
+  }
+}
+
+DepthMap DepthEstimator::estimate(const DepthProblem& problem) const {
+  const std::string problems = problem.validate();
+  if (!problems.empty()) throw InputError("invalid depth problem:\n" + problems);
+  const mvs::PatchMatchParams params = mvs::makePatchMatchParams(options_, problem);
+  if (backend_ == Backend::kCuda) return mvs::estimateOnCuda(options_, params, problem);
+  return mvs::estimateOnCpu(options_, params, problem);
+}
+
+bool cudaBackendAvailable(std::string* description) { return mvs::cudaDeviceUsable(description); }
+
+}  // namespace amhmvs

@@ -1,0 +1,134 @@
+#include "amhmvs_mapping/mvs/patchmatch_options.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mvs/matching_cost.h"
+
+namespace amhmvs {
+namespace {
+
+template <typename T>
+T parseNumber(const std::string& name, const std::string& text) {
+  std::istringstream in(text);
+  T value;
+  if (!(in >> value) || !(in >> std::ws).eof()) {
+    throw InputError("option " + name + ": '" + text + "' is not a valid number");
+  }
+  return value;
+}
+
+template <typename T>
+OptionInfo field(const char* name, T PatchMatchOptions::*member, const char* help) {
+  return {name, help,
+          [member](const PatchMatchOptions& o) {
+            std::ostringstream out;
+            out << o.*member;
+            return out.str();
+          },
+          [member, name](PatchMatchOptions& o, const std::string& text) {
+            o.*member = parseNumber<T>(name, text);
+          }};
+}
+
+template <typename Enum>
+OptionInfo choice(const char* name, Enum PatchMatchOptions::*member, const char* first,
+                  const char* second, const char* help) {
+  return {name, help,
+          [=](const PatchMatchOptions& o) {
+            return std::string(static_cast<int>(o.*member) == 0 ? first : second);
+          },
+          [=](PatchMatchOptions& o, const std::string& text) {
+            if (text == first) {
+              o.*member = static_cast<Enum>(0);
+            } else if (text == second) {
+              o.*member = static_cast<Enum>(1);
+            } else {
+              throw InputError(std::string("option ") + name + ": '" + text + "' is not one of " +
+                               first + ", " + second);
+            }
+          }};
+}
+
+}  // namespace
+
+const std::vector<OptionInfo>& patchMatchOptionTable() {
+  using O = PatchMatchOptions;
+  static const std::vector<OptionInfo> table = {
+      field("iterations", &O::num_iterations, "PatchMatch iterations (paper: 6)"),
+      field("seed", &O::random_seed, "random seed; equal seeds give equal depth maps"),
+      field("window_radius", &O::window_radius, "matching window radius in pixels (paper: 5, 11x11)"),
+      field("window_step", &O::window_step, "window sampling step, 2 = every other row and column"),
+      field("sigma_color", &O::sigma_color, "bilateral weight sigma_I on intensities 0..255 (paper: 3)"),
+      field("sigma_spatial", &O::sigma_spatial, "bilateral weight sigma_x in pixels (paper: 30)"),
+      choice("propagation", &O::propagation, "asymmetric", "symmetric",
+             "checkerboard propagation: asymmetric (paper) or symmetric (ablation \\ACP)"),
+      choice("view_selection", &O::view_selection, "joint", "topk",
+             "view selection: joint multi-hypothesis (paper) or heuristic top-K (ablation \\MHJ)"),
+      field("tau_mc_init", &O::tau_mc_init, "eq. 9 initial good-cost threshold (paper: 0.8)"),
+      field("tau_alpha", &O::tau_alpha, "eq. 9 threshold decay alpha (paper: 90)"),
+      field("tau_up", &O::tau_up, "bad-cost threshold (paper: 1.2)"),
+      field("n1", &O::n1, "a good view has more than n1 good costs (paper: 2)"),
+      field("n2", &O::n2, "a good view has fewer than n2 bad costs (paper: 3)"),
+      field("beta", &O::beta, "eq. 10 confidence width (paper: 0.3)"),
+      field("top_k", &O::top_k, "at most k weighted views per pixel (paper: 4)"),
+      field("best_view_boost", &O::best_view_boost, "eq. 13 factor for last iteration's best view (paper: 2)"),
+      field("previous_selection_weight", &O::previous_selection_weight,
+            "eq. 12 weight of a view selected in the last iteration only (paper: 0.2)"),
+      field("heuristic_k", &O::heuristic_k, "K of the top-K aggregation (ablation, empty-set fallback)"),
+      field("bisection_only_iterations", &O::bisection_only_iterations,
+            "first iterations with bisection refinement only (paper: 3)"),
+      field("bisection_steps", &O::bisection_steps, "bisection samples per pixel and pass"),
+      field("perturbation", &O::perturbation, "relative depth / normal perturbation of the COLMAP-style refinement"),
+      field("max_normal_angle", &O::max_normal_angle_deg, "steepest accepted plane to the viewing ray, degrees"),
+      field("median_filter", &O::median_filter_size, "median filter size on depth (paper: 4; 0 or 1: off)"),
+  };
+  return table;
+}
+
+std::string PatchMatchOptions::validate() const {
+  std::ostringstream why;
+  auto require = [&](bool ok, const char* text) {
+    if (!ok) why << text << "\n";
+  };
+  require(num_iterations >= 1 && num_iterations <= 100, "iterations must be in 1..100");
+  require(window_radius >= 1 && window_radius <= 15, "window_radius must be in 1..15");
+  require(window_step >= 1 && window_step <= window_radius, "window_step must be in 1..window_radius");
+  const int per_axis = 2 * window_radius / std::max(window_step, 1) + 1;
+  require(per_axis * per_axis <= mvs::kMaxWindowSamples,
+          "window has too many samples: (2 * window_radius / window_step + 1)^2 must be <= 64");
+  require(std::isfinite(sigma_color) && sigma_color > 0, "sigma_color must be positive");
+  require(std::isfinite(sigma_spatial) && sigma_spatial > 0, "sigma_spatial must be positive");
+  require(std::isfinite(tau_mc_init) && tau_mc_init > 0 && tau_mc_init <= 2, "tau_mc_init must be in (0, 2]");
+  require(std::isfinite(tau_alpha) && tau_alpha > 0, "tau_alpha must be positive");
+  require(std::isfinite(tau_up) && tau_up >= 0 && tau_up <= 2, "tau_up must be in [0, 2]");
+  require(n1 >= 0 && n1 < 8, "n1 must be in 0..7 (there are 8 hypotheses)");
+  require(n2 >= 1 && n2 <= 9, "n2 must be in 1..9");
+  require(std::isfinite(beta) && beta > 0, "beta must be positive");
+  require(top_k >= 1 && top_k <= kMaxSourceViews, "top_k must be in 1..32");
+  require(std::isfinite(best_view_boost) && best_view_boost >= 1, "best_view_boost must be >= 1");
+  require(std::isfinite(previous_selection_weight) && previous_selection_weight >= 0 &&
+              previous_selection_weight <= 1,
+          "previous_selection_weight must be in [0, 1]");
+  require(heuristic_k >= 1 && heuristic_k <= kMaxSourceViews, "heuristic_k must be in 1..32");
+  require(bisection_only_iterations >= 0, "bisection_only_iterations must be >= 0");
+  require(bisection_steps >= 0 && bisection_steps <= 8, "bisection_steps must be in 0..8");
+  require(std::isfinite(perturbation) && perturbation > 0 && perturbation < 1,
+          "perturbation must be in (0, 1)");
+  require(std::isfinite(max_normal_angle_deg) && max_normal_angle_deg > 0 &&
+              max_normal_angle_deg < 90,
+          "max_normal_angle must be in (0, 90) degrees");
+  require(median_filter_size >= 0 && median_filter_size <= 8, "median_filter must be in 0..8");
+  return why.str();
+}
+
+std::string describe(const PatchMatchOptions& options) {
+  std::ostringstream out;
+  for (const OptionInfo& info : patchMatchOptionTable()) {
+    out << "  --" << info.name << " " << info.get(options) << "\n      " << info.help << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace amhmvs

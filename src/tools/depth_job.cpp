@@ -1,0 +1,205 @@
+#include "depth_job.h"
+
+#include <sys/stat.h>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/io/colmap_model.h"
+#include "amhmvs_mapping/io/colormap.h"
+#include "amhmvs_mapping/io/image_io.h"
+#include "amhmvs_mapping/io/mvsnet_folder.h"
+#include "amhmvs_mapping/io/pfm.h"
+
+namespace amhmvs {
+namespace {
+
+bool isDirectory(const std::string& path) {
+  struct stat info;
+  return stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode);
+}
+
+void makeDirectories(const std::string& path) {
+  for (size_t pos = 1; pos <= path.size(); ++pos) {
+    if (pos == path.size() || path[pos] == '/') {
+      const std::string prefix = path.substr(0, pos);
+      if (!isDirectory(prefix) && mkdir(prefix.c_str(), 0755) != 0 && !isDirectory(prefix)) {
+        throw InputError(prefix + ": cannot create directory");
+      }
+    }
+  }
+}
+
+std::string viewFolderName(int view_id) {
+  char name[16];
+  std::snprintf(name, sizeof(name), "%08d", view_id);
+  return name;
+}
+
+}  // namespace
+
+Scene readInputFolder(const std::string& dir, int max_sources) {
+  if (!isDirectory(dir)) throw InputError(dir + ": input folder does not exist");
+  if (isDirectory(dir + "/sparse")) {
+    ColmapOptions colmap;
+    colmap.max_sources = max_sources;
+    return readColmapWorkspace(dir, colmap);
+  }
+  if (isDirectory(dir + "/cams")) return readMvsnetDenseFolder(dir);
+  throw InputError(dir + ": neither an MVSNet dense folder (images/, cams/, pair.txt) nor a "
+                   "COLMAP workspace (sparse/, images/)");
+}
+
+void maskByCost(DepthMap* map, float max_cost) {
+  for (size_t i = 0; i < map->depth.data.size(); ++i) {
+    if (!(map->cost.data[i] <= max_cost)) map->depth.data[i] = std::nanf("");
+  }
+}
+
+void writeDepthOutputs(const std::string& output_dir, int view_id, const DepthProblem& problem,
+                       const DepthMap& map) {
+  const std::string dir = output_dir + "/" + viewFolderName(view_id);
+  makeDirectories(dir);
+  writePfm(dir + "/depth.pfm", map.depth);
+  writePfm(dir + "/normal.pfm", map.normal);
+  writePfm(dir + "/cost.pfm", map.cost);
+  const std::pair<float, float> range = robustRange(map.depth);
+  writePng(dir + "/depth.png", colorizeDepth(map.depth, range.first, range.second));
+  writeMvsnetCam(dir + "/cam.txt", problem.reference_camera, problem.depth_min, problem.depth_max);
+}
+
+int runDepthJob(const std::string& input_dir, const std::string& output_dir,
+                const DepthJobOptions& options,
+                const std::function<void(int, const DepthProblem&, const DepthMap&)>& on_result) {
+  const Scene scene = readInputFolder(input_dir, options.problem.max_sources);
+  std::vector<int> ids = options.reference_ids;
+  if (ids.empty()) {
+    for (const SceneView& view : scene.views) {
+      const auto it = scene.sources.find(view.id);
+      if (it != scene.sources.end() && !it->second.empty()) ids.push_back(view.id);
+    }
+  }
+  if (ids.empty()) throw InputError(input_dir + ": no view has source views");
+  const DepthEstimator estimator(options.patchmatch, options.backend);
+  if (!options.quiet) {
+    std::string gpu;
+    cudaBackendAvailable(&gpu);
+    std::cerr << "amhmvs_depth: " << scene.views.size() << " views, " << ids.size()
+              << " depth maps, backend " << backendName(estimator.backend())
+              << (estimator.backend() == Backend::kCuda ? " on " + gpu : "") << "\n";
+    if (options.backend == Backend::kAuto && estimator.backend() == Backend::kCpu) {
+      std::cerr << "amhmvs_depth: no GPU backend (" << gpu << "): running on the CPU\n";
+    }
+  }
+  int written = 0;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    const DepthProblem problem = makeDepthProblem(scene, ids[i], options.problem);
+    DepthMap map = estimator.estimate(problem);
+    if (options.max_cost > 0) maskByCost(&map, options.max_cost);
+    if (!output_dir.empty()) writeDepthOutputs(output_dir, ids[i], problem, map);
+    if (on_result) on_result(ids[i], problem, map);
+    ++written;
+    if (!options.quiet) {
+      std::fprintf(stderr, "[%zu/%zu] view %s: %dx%d, %zu sources, depth [%.3g, %.3g] m, %.0f ms\n",
+                   i + 1, ids.size(), viewFolderName(ids[i]).c_str(), problem.reference_camera.width,
+                   problem.reference_camera.height, problem.source_cameras.size(), problem.depth_min,
+                   problem.depth_max, map.milliseconds);
+    }
+  }
+  return written;
+}
+
+namespace {
+
+template <typename T>
+T parseValue(const std::string& option, const std::string& text) {
+  std::istringstream in(text);
+  T value;
+  if (!(in >> value) || !(in >> std::ws).eof()) {
+    throw InputError("option --" + option + ": '" + text + "' is not a valid value");
+  }
+  return value;
+}
+
+std::vector<int> parseIdList(const std::string& text) {
+  std::vector<int> ids;
+  std::istringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) ids.push_back(parseValue<int>("views", item));
+  return ids;
+}
+
+}  // namespace
+
+DepthJobOptions parseDepthJobArguments(const std::vector<std::string>& arguments) {
+  DepthJobOptions options;
+  for (size_t i = 0; i < arguments.size(); ++i) {
+    const std::string& arg = arguments[i];
+    if (arg == "--quiet") {
+      options.quiet = true;
+      continue;
+    }
+    if (arg.rfind("--", 0) != 0) throw InputError("unexpected argument '" + arg + "'");
+    std::string name = arg.substr(2), value;
+    const size_t eq = name.find('=');
+    if (eq != std::string::npos) {
+      value = name.substr(eq + 1);
+      name = name.substr(0, eq);
+    } else if (i + 1 < arguments.size()) {
+      value = arguments[++i];
+    } else {
+      throw InputError("option --" + name + " needs a value");
+    }
+    if (name == "views") options.reference_ids = parseIdList(value);
+    else if (name == "num_sources") options.problem.max_sources = parseValue<int>(name, value);
+    else if (name == "max_image_size") options.problem.max_image_size = parseValue<int>(name, value);
+    else if (name == "scale") options.problem.scale = parseValue<double>(name, value);
+    else if (name == "depth_min") options.problem.depth_min = parseValue<double>(name, value);
+    else if (name == "depth_max") options.problem.depth_max = parseValue<double>(name, value);
+    else if (name == "backend") options.backend = parseBackend(value);
+    else if (name == "max_cost") options.max_cost = parseValue<float>(name, value);
+    else {
+      bool known = false;
+      for (const OptionInfo& info : patchMatchOptionTable()) {
+        if (info.name == name) {
+          info.set(options.patchmatch, value);
+          known = true;
+        }
+      }
+      if (!known) throw InputError("unknown option --" + name + " (see --help)");
+    }
+  }
+  const std::string problems = options.problem.validate() + options.patchmatch.validate();
+  if (!problems.empty()) throw InputError("invalid options:\n" + problems);
+  return options;
+}
+
+std::string depthJobUsage() {
+  std::ostringstream out;
+  out << "Usage: amhmvs_depth INPUT_DIR OUTPUT_DIR [options]\n\n"
+         "Estimates a depth map per reference view with AMHMVS PatchMatch multi-view stereo.\n"
+         "INPUT_DIR is an MVSNet dense folder (images/, cams/NNNNNNNN_cam.txt, pair.txt) or a\n"
+         "COLMAP workspace (sparse/ with cameras, images, points3D as .txt or .bin, and images/;\n"
+         "PINHOLE or SIMPLE_PINHOLE cameras, e.g. from `colmap image_undistorter`).\n\n"
+         "Writes OUTPUT_DIR/<8-digit view id>/: depth.pfm (z-depth in metres, float32, at the\n"
+         "processed resolution; NaN where nothing could be scored, or above --max_cost),\n"
+         "normal.pfm (3 channels, camera frame), cost.pfm, depth.png (colour-mapped) and\n"
+         "cam.txt (the camera used, MVSNet format, K scaled).\n\n"
+         "Input options:\n"
+         "  --views ID[,ID...]      reference views (default: every view with sources)\n"
+         "  --num_sources N         source views per reference, best first (default 10, max 32)\n"
+         "  --max_image_size N      longest image side after scaling, 0 = no limit (default 0)\n"
+         "  --scale S               image scale in (0, 1] (default 1)\n"
+         "  --depth_min M --depth_max M   override the views' depth ranges (metres)\n"
+         "  --backend auto|cuda|cpu compute backend (default auto: CUDA if a GPU is usable)\n"
+         "  --max_cost C            mask pixels whose cost exceeds C (default 0: no mask)\n"
+         "  --quiet                 no progress on stderr\n\n"
+         "Method options (defaults are the paper's):\n"
+      << describe(PatchMatchOptions());
+  return out.str();
+}
+
+}  // namespace amhmvs

@@ -1,0 +1,47 @@
+// The offline depth job shared by amhmvs_depth, the benchmark and the tests:
+// read an input folder, estimate the depth of reference views, write outputs.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "amhmvs_mapping/io/scene.h"
+#include "amhmvs_mapping/mvs/depth_estimator.h"
+#include "amhmvs_mapping/mvs/problem_builder.h"
+
+namespace amhmvs {
+
+// Reads an MVSNet dense folder (images/, cams/, pair.txt) or a COLMAP
+// workspace (sparse/ and images/); throws InputError otherwise.
+Scene readInputFolder(const std::string& dir, int max_sources);
+
+struct DepthJobOptions {
+  ProblemOptions problem;
+  PatchMatchOptions patchmatch;
+  Backend backend = Backend::kAuto;
+  std::vector<int> reference_ids;  // empty: every view with sources
+  float max_cost = 0;              // > 0: depth NaN where cost exceeds it
+  bool quiet = false;
+};
+
+// Writes OUTPUT_DIR/<8-digit id>/ depth.pfm, normal.pfm, cost.pfm, depth.png
+// and cam.txt.
+void writeDepthOutputs(const std::string& output_dir, int view_id, const DepthProblem& problem,
+                       const DepthMap& map);
+
+// Masks pixels whose cost exceeds max_cost (depth := NaN).
+void maskByCost(DepthMap* map, float max_cost);
+
+// Runs the job; `on_result` (if set) sees every depth map. Returns the number
+// of depth maps written.
+int runDepthJob(const std::string& input_dir, const std::string& output_dir,
+                const DepthJobOptions& options,
+                const std::function<void(int, const DepthProblem&, const DepthMap&)>& on_result = {});
+
+// Parses the command line of amhmvs_depth (after INPUT_DIR OUTPUT_DIR);
+// throws InputError on unknown options or bad values.
+DepthJobOptions parseDepthJobArguments(const std::vector<std::string>& arguments);
+std::string depthJobUsage();
+
+}  // namespace amhmvs

@@ -1,0 +1,21 @@
+// Depth problems on the built-in synthetic scene (no data files needed):
+// for tests, the benchmark and the demo.
+#pragma once
+
+#include <cstdint>
+
+#include "amhmvs_mapping/core/image.h"
+#include "amhmvs_mapping/mvs/depth_estimator.h"
+
+namespace amhmvs {
+
+struct SyntheticProblem {
+  DepthProblem problem;
+  ImageF true_depth;  // of the reference view; NaN where nothing is hit
+};
+
+// Reference camera 0 and `sources` sideways cameras around it, looking at the
+// slanted-planes world; depth range from the true depth widened by 10 %.
+SyntheticProblem makeSyntheticProblem(int width, int height, int sources, uint32_t seed = 1);
+
+}  // namespace amhmvs

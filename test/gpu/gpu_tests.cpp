@@ -1,0 +1,211 @@
+// GPU tests of the estimator, run on the GPU machine by scripts/gpu_check.sh:
+//  - the CPU sampler reproduces the texture unit's bilinear filtering;
+//  - each backend is deterministic (bit-identical depth maps run after run);
+//  - CPU and GPU agree on real scenes (fraction of pixels within 0.1 % depth);
+//  - accuracy on the real data with the paper's defaults, against the public
+//    implementation's numbers (floors), on both backends;
+//  - a small scene for compute-sanitizer (--sanitize).
+//
+// usage: amhmvs_gpu_tests DATA_DIR [--sanitize] [--skip-cpu-fountain]
+// DATA_DIR is the output of scripts/prepare_gpu_data.py.
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "amhmvs_mapping/eval/depth_metrics.h"
+#include "amhmvs_mapping/mvs/cpu_sampler.h"
+#include "amhmvs_mapping/mvs/depth_estimator.h"
+#include "depth_job.h"
+#include "gpu/texture_probe.h"
+
+namespace amhmvs {
+namespace {
+
+int failures = 0;
+
+void expect(bool ok, const std::string& what) {
+  std::printf("%s  %s\n", ok ? "PASS" : "FAIL", what.c_str());
+  if (!ok) ++failures;
+}
+
+void textureEmulation() {
+  std::mt19937 rng(7);
+  ImageU8 image(61, 47);
+  for (uint8_t& v : image.data) v = static_cast<uint8_t>(rng() & 255);
+  std::uniform_real_distribution<float> ux(-3.0f, 64.0f), uy(-3.0f, 50.0f);
+  std::vector<float> xs(20000), ys(20000);
+  for (size_t i = 0; i < xs.size(); ++i) {
+    xs[i] = ux(rng);
+    ys[i] = uy(rng);
+  }
+  const std::vector<float> gpu = sampleTextureOnGpu(image, xs, ys);
+  const mvs::HostImage8 host{image.data.data(), image.width, image.height};
+  double max_diff = 0, sum_diff = 0;
+  for (size_t i = 0; i < xs.size(); ++i) {
+    const double d = std::abs(mvs::textureBilinear(host, xs[i], ys[i]) - gpu[i]);
+    max_diff = std::max(max_diff, d);
+    sum_diff += d;
+  }
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "CPU sampler matches texture fetches: max |diff| %.5f, mean %.6f grey levels",
+                max_diff, sum_diff / xs.size());
+  expect(max_diff < 0.01, text);
+}
+
+struct RunResult {
+  DepthMap map;
+  DepthProblem problem;
+};
+
+DepthMap run(const DepthProblem& problem, Backend backend, const PatchMatchOptions& options = {}) {
+  return DepthEstimator(options, backend).estimate(problem);
+}
+
+double agreement(const ImageF& a, const ImageF& b, double tolerance) {
+  long total = 0, agree = 0;
+  for (size_t i = 0; i < a.data.size(); ++i) {
+    const float x = a.data[i], y = b.data[i];
+    if (!std::isfinite(x) && !std::isfinite(y)) continue;
+    ++total;
+    agree += std::isfinite(x) && std::isfinite(y) && std::abs(x - y) <= tolerance * y;
+  }
+  return total ? static_cast<double>(agree) / total : 1.0;
+}
+
+bool identical(const ImageF& a, const ImageF& b) {
+  return a.data.size() == b.data.size() &&
+         std::memcmp(a.data.data(), b.data.data(), a.data.size() * sizeof(float)) == 0;
+}
+
+DepthProblem loadProblem(const std::string& folder, int view, int max_sources = 10,
+                         int max_image_size = 0) {
+  const Scene scene = readInputFolder(folder, max_sources);
+  ProblemOptions options;
+  options.max_sources = max_sources;
+  options.max_image_size = max_image_size;
+  return makeDepthProblem(scene, view, options);
+}
+
+void checkFloors(const std::string& label, const AccuracyCounts& counts, const double floors[3]) {
+  char text[200];
+  std::snprintf(text, sizeof(text), "%s: %s %% (floor %.1f / %.1f / %.1f), %ld samples",
+                label.c_str(), counts.percentages().c_str(), floors[0], floors[1], floors[2],
+                counts.total);
+  bool ok = true;
+  for (int i = 0; i < 3; ++i) ok &= 100.0 * counts.fraction(i) >= floors[i];
+  expect(ok, text);
+}
+
+const char* kMiddleburyScenes[] = {"Adirondack", "Motorcycle", "Piano", "Playtable"};
+const double kMiddleburyFloors[3] = {75.4, 82.8, 87.7};
+const double kFountainFloors[3] = {98.3, 99.2, 99.5};
+
+void middlebury(const std::string& data, Backend backend, bool check_agreement) {
+  AccuracyCounts pooled;
+  for (const char* scene : kMiddleburyScenes) {
+    const DepthProblem problem = loadProblem(data + "/mvsnet/middlebury2014_" + scene, 0, 1);
+    const DepthMap map = run(problem, backend);
+    const MiddleburyGroundTruth gt = readMiddleburyGroundTruth(data + "/middlebury2014/" + scene);
+    const AccuracyCounts counts = denseDepthAccuracy(map.depth, gt.depth, &gt.nonoccluded);
+    pooled.merge(counts);
+    std::printf("  middlebury %-10s %-4s %s %%  (%.0f ms)\n", scene, backendName(backend),
+                counts.percentages().c_str(), map.milliseconds);
+    if (check_agreement) {
+      const DepthMap cpu = run(problem, Backend::kCpu);
+      char text[160];
+      const double a = agreement(map.depth, cpu.depth, 0.001);
+      std::snprintf(text, sizeof(text), "CPU/GPU agreement on middlebury %s: %.2f %% of pixels within 0.1 %% depth",
+                    scene, 100 * a);
+      std::printf("%s  %s\n", a >= 0.99 ? "PASS" : "INFO", text);
+      const MiddleburyGroundTruth& g = gt;
+      std::printf("  middlebury %-10s cpu  %s %%  (%.0f ms)\n", scene,
+                  denseDepthAccuracy(cpu.depth, g.depth, &g.nonoccluded).percentages().c_str(),
+                  cpu.milliseconds);
+    }
+  }
+  checkFloors(std::string("middlebury pooled, ") + backendName(backend), pooled, kMiddleburyFloors);
+}
+
+void fountain(const std::string& data, Backend backend) {
+  const std::string folder = data + "/mvsnet/fountain_x0.25";
+  const std::vector<SparsePoint> points = readSparsePoints(folder + "/sparse_points.txt");
+  AccuracyCounts pooled;
+  DepthJobOptions options;
+  options.backend = backend;
+  options.quiet = true;
+  double ms = 0;
+  runDepthJob(folder, "", options, [&](int id, const DepthProblem& problem, const DepthMap& map) {
+    pooled.merge(sparsePointAccuracy(map.depth, problem.reference_camera, id, points));
+    ms += map.milliseconds;
+  });
+  std::printf("  fountain_x0.25 %s: %.0f ms for 11 depth maps\n", backendName(backend), ms);
+  checkFloors(std::string("fountain_x0.25 sparse agreement, ") + backendName(backend), pooled,
+              kFountainFloors);
+}
+
+void determinism(const std::string& data) {
+  const DepthProblem problem = loadProblem(data + "/mvsnet/fountain_x0.25", 3, 10, 384);
+  for (Backend backend : {Backend::kCuda, Backend::kCpu}) {
+    const DepthMap a = run(problem, backend), b = run(problem, backend);
+    expect(identical(a.depth, b.depth) && identical(a.normal, b.normal) && identical(a.cost, b.cost),
+           std::string("deterministic ") + backendName(backend) + " (fountain view 3 at 384 px, twice)");
+  }
+  PatchMatchOptions other_seed;
+  other_seed.random_seed = 1;
+  const DepthMap a = run(problem, Backend::kCuda), c = run(problem, Backend::kCuda, other_seed);
+  expect(!identical(a.depth, c.depth), "another seed gives another depth map");
+  const DepthMap cpu = run(problem, Backend::kCpu);
+  char text[160];
+  std::snprintf(text, sizeof(text), "CPU/GPU agreement on fountain view 3: %.2f %% within 0.1 %% depth",
+                100 * agreement(a.depth, cpu.depth, 0.001));
+  std::printf("INFO  %s\n", text);
+}
+
+}  // namespace
+}  // namespace amhmvs
+
+int main(int argc, char** argv) {
+  using namespace amhmvs;
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: amhmvs_gpu_tests DATA_DIR [--sanitize] [--skip-cpu-fountain]\n");
+    return 2;
+  }
+  const std::string data = argv[1];
+  bool sanitize = false, cpu_fountain = true;
+  for (int i = 2; i < argc; ++i) {
+    sanitize |= std::strcmp(argv[i], "--sanitize") == 0;
+    if (std::strcmp(argv[i], "--skip-cpu-fountain") == 0) cpu_fountain = false;
+  }
+  std::string gpu;
+  if (!cudaBackendAvailable(&gpu)) {
+    std::printf("FAIL  no GPU: %s\n", gpu.c_str());
+    return 1;
+  }
+  std::printf("device: %s\n", gpu.c_str());
+  try {
+    if (sanitize) {
+      // Small scene for compute-sanitizer: two iterations on a 96 px image.
+      const DepthProblem problem = loadProblem(data + "/mvsnet/fountain_x0.25", 0, 4, 96);
+      PatchMatchOptions options;
+      options.num_iterations = 4;
+      const DepthMap map = run(problem, Backend::kCuda, options);
+      expect(map.depth.width == problem.reference_camera.width, "sanitizer scene ran");
+      return failures ? 1 : 0;
+    }
+    textureEmulation();
+    determinism(data);
+    middlebury(data, Backend::kCuda, true);
+    middlebury(data, Backend::kCpu, false);
+    fountain(data, Backend::kCuda);
+    if (cpu_fountain) fountain(data, Backend::kCpu);
+  } catch (const std::exception& e) {
+    std::printf("FAIL  exception: %s\n", e.what());
+    ++failures;
+  }
+  std::printf("%d failure(s)\n", failures);
+  return failures ? 1 : 0;
+}

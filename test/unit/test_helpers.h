@@ -1,0 +1,92 @@
+// Shared helpers for the unit tests: locating the real data set and scratch
+// folders for malformed inputs.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+namespace amhmvs {
+namespace test {
+
+// Root of the shared real data: $AMHMVS_DATA_DIR, else <source dir>/../shared/data.
+inline std::string dataDir() {
+  if (const char* env = std::getenv("AMHMVS_DATA_DIR")) return env;
+#ifdef AMHMVS_SOURCE_DIR
+  return std::string(AMHMVS_SOURCE_DIR) + "/../shared/data";
+#else
+  return "../shared/data";
+#endif
+}
+
+// Full path of `relative` under dataDir(), or "" when it does not exist.
+inline std::string dataPath(const std::string& relative) {
+  const std::string path = dataDir() + "/" + relative;
+  return std::filesystem::exists(path) ? path : "";
+}
+
+// A fresh folder under the system temp dir, removed with its content.
+class TempDir {
+ public:
+  TempDir() {
+    std::random_device rd;
+    path_ = std::filesystem::temp_directory_path() /
+            ("amhmvs_test_" + std::to_string(rd()) + "_" + std::to_string(rd()));
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+
+  std::string path() const { return path_.string(); }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+
+  // Writes `content` to `name` (creating parent folders) and returns its path.
+  std::string write(const std::string& name, const std::string& content) const {
+    return writeTo((path_ / name).string(), content);
+  }
+
+  // Writes `content` to an absolute path (creating parent folders).
+  static std::string writeTo(const std::string& path, const std::string& content) {
+    const std::filesystem::path p(path);
+    std::filesystem::create_directories(p.parent_path());
+    std::ofstream out(p, std::ios::binary | std::ios::trunc);
+    out << content;
+    return p.string();
+  }
+
+ private:
+  std::filesystem::path path_;
+};
+
+}  // namespace test
+}  // namespace amhmvs
+
+// Skips the current test when real data is absent (a user's machine).
+#define AMHMVS_REQUIRE_DATA(var, relative)                                            \
+  const std::string var = ::amhmvs::test::dataPath(relative);                         \
+  if (var.empty()) {                                                                  \
+    GTEST_SKIP() << "real data not found: " << ::amhmvs::test::dataDir() << "/"       \
+                 << (relative) << " (set AMHMVS_DATA_DIR to the shared data folder)"; \
+  }
+
+// Expects `statement` to throw amhmvs::InputError whose message contains both
+// `needle1` and `needle2` (e.g. the file name and a word for the problem).
+#define EXPECT_INPUT_ERROR(statement, needle1, needle2)                              \
+  do {                                                                               \
+    try {                                                                            \
+      statement;                                                                     \
+      ADD_FAILURE() << "expected InputError from: " #statement;                      \
+    } catch (const ::amhmvs::InputError& e) {                                        \
+      const std::string message = e.what();                                          \
+      EXPECT_NE(message.find(needle1), std::string::npos) << "message: " << message; \
+      EXPECT_NE(message.find(needle2), std::string::npos) << "message: " << message; \
+    }                                                                                \
+  } while (0)
