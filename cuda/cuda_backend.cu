@@ -13,6 +13,17 @@ namespace amhmvs {
 namespace mvs {
 namespace {
 
+// One source view: a layer of the layered texture.
+struct GpuSourceView {
+  cudaTextureObject_t texture;
+  int layer;
+
+  __device__ float sample(float x, float y) const {
+    // Texture coordinates put pixel centres at +0.5.
+    return tex2DLayered<float>(texture, x + 0.5f, y + 0.5f, layer) * 255.0f;
+  }
+};
+
 // Reference image from global memory (exact integer reads), sources from the
 // layered texture (hardware bilinear filtering).
 struct GpuSampler {
@@ -20,31 +31,30 @@ struct GpuSampler {
   int width, height;
   cudaTextureObject_t sources;
 
+  // Intensity at an integer pixel, -1 outside the image.
   __device__ float reference(int x, int y) const {
-    x = min(max(x, 0), width - 1);
-    y = min(max(y, 0), height - 1);
+    if (x < 0 || y < 0 || x >= width || y >= height) return -1.0f;
     return static_cast<float>(__ldg(reference_pixels + y * width + x));
   }
-  __device__ float source(int view, float x, float y) const {
-    // Texture coordinates put pixel centres at +0.5.
-    return tex2DLayered<float>(sources, x + 0.5f, y + 0.5f, view) * 255.0f;
-  }
+  __device__ GpuSourceView sourceView(int view) const { return {sources, view}; }
 };
 
 constexpr int kBlockX = 16, kBlockY = 8;
 
+template <class Window>
 __global__ void initializeKernel(PatchMatchParams P, GpuSampler sampler, PixelState state) {
   const int x = blockIdx.x * blockDim.x + threadIdx.x;
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
-  if (x < P.width && y < P.height) initializePixel(P, sampler, state, x, y);
+  if (x < P.width && y < P.height) initializePixel<Window>(P, sampler, state, x, y);
 }
 
 // One thread per pixel of `colour`: thread column i handles x = 2 i + parity.
+template <class Window>
 __global__ void updateKernel(PatchMatchParams P, GpuSampler sampler, PixelState state,
                              int iteration, int colour) {
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
   const int x = 2 * (blockIdx.x * blockDim.x + threadIdx.x) + ((y + colour) & 1);
-  if (x < P.width && y < P.height) updatePixel(P, sampler, state, iteration, x, y);
+  if (x < P.width && y < P.height) updatePixel<Window>(P, sampler, state, iteration, x, y);
 }
 
 __global__ void outputKernel(PatchMatchParams P, PixelState state, float* raw_depth,
@@ -69,6 +79,22 @@ __global__ void medianKernel(int width, int height, int size, const float* raw_d
 
 dim3 gridFor(int width, int height) {
   return dim3((width + kBlockX - 1) / kBlockX, (height + kBlockY - 1) / kBlockY);
+}
+
+// Initialisation and all iterations, kernels queued back to back.
+template <class Window>
+void runPatchMatch(const PatchMatchParams& P, const GpuSampler& sampler, PixelState state,
+                   int iterations) {
+  const dim3 block(kBlockX, kBlockY);
+  initializeKernel<Window><<<gridFor(P.width, P.height), block>>>(P, sampler, state);
+  AMHMVS_CUDA_CHECK_LAUNCH();
+  const dim3 half_grid = gridFor((P.width + 1) / 2, P.height);
+  for (int iteration = 0; iteration < iterations; ++iteration) {
+    for (int colour = 0; colour < 2; ++colour) {
+      updateKernel<Window><<<half_grid, block>>>(P, sampler, state, iteration, colour);
+      AMHMVS_CUDA_CHECK_LAUNCH();
+    }
+  }
 }
 
 }  // namespace
@@ -123,16 +149,12 @@ DepthMap estimateOnCuda(const PatchMatchOptions& options, const PatchMatchParams
   const PixelState state{planes.get(), costs.get(), selected.get(), best_view.get()};
   const GpuSampler sampler{reference.get(), width, height, sources.object()};
 
-  const dim3 block(kBlockX, kBlockY);
-  initializeKernel<<<gridFor(width, height), block>>>(P, sampler, state);
-  AMHMVS_CUDA_CHECK_LAUNCH();
-  const dim3 half_grid = gridFor((width + 1) / 2, height);
-  for (int iteration = 0; iteration < options.num_iterations; ++iteration) {
-    for (int colour = 0; colour < 2; ++colour) {
-      updateKernel<<<half_grid, block>>>(P, sampler, state, iteration, colour);
-      AMHMVS_CUDA_CHECK_LAUNCH();
-    }
+  if (isPaperWindow(P.cost)) {
+    runPatchMatch<PaperWindow>(P, sampler, state, options.num_iterations);
+  } else {
+    runPatchMatch<RuntimeWindow>(P, sampler, state, options.num_iterations);
   }
+  const dim3 block(kBlockX, kBlockY);
   DeviceBuffer<float> raw_depth(pixels), depth(pixels), normal(3 * pixels), cost(pixels);
   outputKernel<<<gridFor(width, height), block>>>(P, state, raw_depth.get(), normal.get(), cost.get());
   AMHMVS_CUDA_CHECK_LAUNCH();

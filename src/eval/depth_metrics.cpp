@@ -102,7 +102,7 @@ MiddleburyGroundTruth readMiddleburyGroundTruth(const std::string& dir) {
                                         : std::numeric_limits<float>::quiet_NaN();
   }
   std::string mask_path;
-  for (const std::string& ext : {"png", "pgm", "pnm"}) {
+  for (const char* ext : {"png", "pgm", "pnm"}) {
     const std::string candidate = dir + "/mask0nocc." + ext;
     if (std::ifstream(candidate)) {
       mask_path = candidate;

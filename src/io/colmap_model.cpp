@@ -367,10 +367,10 @@ void checkOptions(const ColmapOptions& o) {
 }
 
 double quantile(const std::vector<double>& sorted, double p) {
-  const double pos = p * (sorted.size() - 1);
+  const double pos = p * static_cast<double>(sorted.size() - 1);
   const size_t lo = static_cast<size_t>(std::floor(pos));
   const size_t hi = std::min(sorted.size() - 1, lo + 1);
-  return sorted[lo] + (pos - lo) * (sorted[hi] - sorted[lo]);
+  return sorted[lo] + (pos - static_cast<double>(lo)) * (sorted[hi] - sorted[lo]);
 }
 
 bool allExist(const fs::path& dir, const char* ext) {

@@ -63,10 +63,10 @@ std::pair<float, float> robustRange(const ImageF& image, double low_pct, double 
   if (values.empty()) throw InputError("robustRange: image has no finite values");
   std::sort(values.begin(), values.end());
   auto quantile = [&](double p) {
-    const double pos = p * (values.size() - 1);
+    const double pos = p * static_cast<double>(values.size() - 1);
     const size_t lo = static_cast<size_t>(std::floor(pos));
     const size_t hi = std::min(values.size() - 1, lo + 1);
-    const double f = pos - lo;
+    const double f = pos - static_cast<double>(lo);
     return static_cast<float>(values[lo] + f * (static_cast<double>(values[hi]) - values[lo]));
   };
   return {quantile(low_pct), quantile(high_pct)};

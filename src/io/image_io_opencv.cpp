@@ -1,8 +1,10 @@
 #include "image_io_opencv.h"
 
+#include <cstdint>
 #include <cstring>
+#include <string>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "amhmvs_mapping/core/error.h"
 
@@ -22,28 +24,34 @@ ImageU8 readImageOpenCv(const std::string& path) {
   if (mat.empty()) {
     throw InputError(path + ": cannot decode image (unsupported format or corrupt file)");
   }
-  if (mat.depth() != CV_8U) {
+  // imread without ANYDEPTH already gives 8 bits; kept as a guard.
+  if (mat.depth() == CV_16U) {
     cv::Mat converted;
-    mat.convertTo(converted, CV_8U);
+    mat.convertTo(converted, CV_8U, 1.0 / 257.0);
     mat = converted;
+  } else if (mat.depth() != CV_8U) {
+    throw InputError(path + ": unsupported sample type (only 8- and 16-bit images are read)");
   }
-  cv::Mat out;
-  switch (mat.channels()) {
-    case 1:
-      out = mat;
-      break;
-    case 3:
-      cv::cvtColor(mat, out, cv::COLOR_BGR2RGB);
-      break;
-    case 4:
-      cv::cvtColor(mat, out, cv::COLOR_BGRA2RGB);
-      break;
-    default:
-      throw InputError(path + ": unsupported channel count " + std::to_string(mat.channels()));
+  // OpenCV orders colour as BGR(A); copy out as RGB by hand so that only the
+  // core and imgcodecs modules are needed.
+  const int c = mat.channels();
+  if (c != 1 && c != 3 && c != 4) {
+    throw InputError(path + ": unsupported channel count " + std::to_string(c));
   }
-  if (!out.isContinuous()) out = out.clone();
-  ImageU8 image(out.cols, out.rows, out.channels());
-  std::memcpy(image.data.data(), out.data, image.data.size());
+  ImageU8 image(mat.cols, mat.rows, c == 1 ? 1 : 3);
+  for (int y = 0; y < mat.rows; ++y) {
+    const uint8_t* row = mat.ptr<uint8_t>(y);
+    uint8_t* out = &image.data[image.index(0, y)];
+    if (c == 1) {
+      std::memcpy(out, row, static_cast<size_t>(mat.cols));
+      continue;
+    }
+    for (int x = 0; x < mat.cols; ++x) {
+      out[3 * x + 0] = row[c * x + 2];
+      out[3 * x + 1] = row[c * x + 1];
+      out[3 * x + 2] = row[c * x + 0];
+    }
+  }
   return image;
 }
 

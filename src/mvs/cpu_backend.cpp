@@ -1,5 +1,6 @@
 // CPU backend: the per-pixel algorithm of patchmatch_pixel.h in OpenMP loops.
 #include <chrono>
+#include <memory>
 
 #include "amhmvs_mapping/mvs/cpu_sampler.h"
 #include "backends.h"
@@ -10,6 +11,27 @@ namespace {
 
 HostImage8 hostImage(const ImageU8& image) { return {image.data.data(), image.width, image.height}; }
 
+// Initialisation and all iterations; the state is left in `state`.
+template <class Window>
+void runPatchMatch(const PatchMatchParams& P, const CpuSampler& sampler, PixelState state,
+                   int iterations) {
+  const int width = P.width, height = P.height;
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) initializePixel<Window>(P, sampler, state, x, y);
+  }
+  for (int iteration = 0; iteration < iterations; ++iteration) {
+    for (int colour = 0; colour < 2; ++colour) {
+#pragma omp parallel for schedule(dynamic, 4)
+      for (int y = 0; y < height; ++y) {
+        for (int x = (y + colour) & 1; x < width; x += 2) {
+          updatePixel<Window>(P, sampler, state, iteration, x, y);
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 
 DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams& P,
@@ -17,7 +39,11 @@ DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams&
   const auto start = std::chrono::steady_clock::now();
   CpuSampler sampler{};
   sampler.reference_image = hostImage(problem.reference_image);
-  for (int j = 0; j < P.num_sources; ++j) sampler.sources[j] = hostImage(problem.source_images[j]);
+  std::vector<std::unique_ptr<PaddedImage8>> padded;
+  for (int j = 0; j < P.num_sources; ++j) {
+    padded.push_back(std::make_unique<PaddedImage8>(hostImage(problem.source_images[j])));
+    sampler.sources[j] = padded.back().get();
+  }
 
   const int width = P.width, height = P.height;
   const size_t pixels = static_cast<size_t>(width) * height;
@@ -26,20 +52,10 @@ DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams&
   std::vector<uint32_t> selected(pixels);
   std::vector<int8_t> best_view(pixels);
   const PixelState state{planes.data(), costs.data(), selected.data(), best_view.data()};
-
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) initializePixel(P, sampler, state, x, y);
-  }
-  for (int iteration = 0; iteration < options.num_iterations; ++iteration) {
-    for (int colour = 0; colour < 2; ++colour) {
-#pragma omp parallel for schedule(dynamic, 4)
-      for (int y = 0; y < height; ++y) {
-        for (int x = (y + colour) & 1; x < width; x += 2) {
-          updatePixel(P, sampler, state, iteration, x, y);
-        }
-      }
-    }
+  if (isPaperWindow(P.cost)) {
+    runPatchMatch<PaperWindow>(P, sampler, state, options.num_iterations);
+  } else {
+    runPatchMatch<RuntimeWindow>(P, sampler, state, options.num_iterations);
   }
 
   DepthMap out;

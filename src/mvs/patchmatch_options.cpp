@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <type_traits>
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mvs/matching_cost.h"
@@ -11,6 +12,9 @@ namespace {
 
 template <typename T>
 T parseNumber(const std::string& name, const std::string& text) {
+  if (std::is_unsigned<T>::value && text.find('-') != std::string::npos) {
+    throw InputError("option " + name + ": '" + text + "' must not be negative");
+  }
   std::istringstream in(text);
   T value;
   if (!(in >> value) || !(in >> std::ws).eof()) {
@@ -95,6 +99,8 @@ std::string PatchMatchOptions::validate() const {
   require(num_iterations >= 1 && num_iterations <= 100, "iterations must be in 1..100");
   require(window_radius >= 1 && window_radius <= 15, "window_radius must be in 1..15");
   require(window_step >= 1 && window_step <= window_radius, "window_step must be in 1..window_radius");
+  require(window_step >= 1 && (2 * window_radius) % window_step == 0,
+          "window_step must divide 2 * window_radius, so that the window is centred on the pixel");
   const int per_axis = 2 * window_radius / std::max(window_step, 1) + 1;
   require(per_axis * per_axis <= mvs::kMaxWindowSamples,
           "window has too many samples: (2 * window_radius / window_step + 1)^2 must be <= 64");

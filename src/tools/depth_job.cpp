@@ -66,7 +66,14 @@ void writeDepthOutputs(const std::string& output_dir, int view_id, const DepthPr
   writePfm(dir + "/depth.pfm", map.depth);
   writePfm(dir + "/normal.pfm", map.normal);
   writePfm(dir + "/cost.pfm", map.cost);
-  const std::pair<float, float> range = robustRange(map.depth);
+  // Colour scale from the map's own robust range, else the problem's range
+  // (a map with no valid depth at all is shown black).
+  std::pair<float, float> range(static_cast<float>(problem.depth_min),
+                                static_cast<float>(problem.depth_max));
+  try {
+    range = robustRange(map.depth);
+  } catch (const InputError&) {
+  }
   writePng(dir + "/depth.png", colorizeDepth(map.depth, range.first, range.second));
   writeMvsnetCam(dir + "/cam.txt", problem.reference_camera, problem.depth_min, problem.depth_max);
 }

@@ -8,8 +8,40 @@
 
 namespace amhmvs {
 
+namespace {
+
+// Three textured slanted planes that meet along creases, seen from inside the
+// fold: a left and a right wall at 2.5..4 m and a floor 1.2 m below the
+// camera. Depth is continuous everywhere (no occlusion boundary), so every
+// pixel is visible in every source view.
+SyntheticWorld makeFoldedPlanesWorld(uint32_t seed) {
+  SyntheticWorld world;
+  const double texture = 0.08;  // finest texture feature, metres (~6 px at 320x240)
+  auto wall = [&](double x_end, double z_end, uint32_t texture_seed) {
+    SyntheticPlane p;
+    p.origin = Eigen::Vector3d(0, -6, 4);
+    p.axis_u = Eigen::Vector3d(x_end, 0, z_end - 4);
+    p.axis_v = Eigen::Vector3d(0, 7.2, 0);  // down to the floor at y = 1.2
+    p.texture_seed = texture_seed;
+    p.texture_scale = texture;
+    return p;
+  };
+  world.planes.push_back(wall(-6, 2.5, seed * 3 + 1));  // left wall, z = 4 + 0.25 x
+  world.planes.push_back(wall(6, 2.8, seed * 3 + 2));   // right wall, z = 4 - 0.2 x
+  SyntheticPlane floor;
+  floor.origin = Eigen::Vector3d(-8, 1.2, 0);
+  floor.axis_u = Eigen::Vector3d(16, 0, 0);
+  floor.axis_v = Eigen::Vector3d(0, 0, 6);
+  floor.texture_seed = seed * 3 + 3;
+  floor.texture_scale = texture;
+  world.planes.push_back(floor);
+  return world;
+}
+
+}  // namespace
+
 SyntheticProblem makeSyntheticProblem(int width, int height, int sources, uint32_t seed) {
-  const SyntheticWorld world = makeSlantedPlanesWorld(seed);
+  const SyntheticWorld world = makeFoldedPlanesWorld(seed);
   const std::vector<PinholeCamera> cameras = makeSidewaysCameras(sources + 1, width, height);
   SyntheticProblem out;
   for (size_t i = 0; i < cameras.size(); ++i) {

@@ -14,8 +14,10 @@ struct SyntheticProblem {
   ImageF true_depth;  // of the reference view; NaN where nothing is hit
 };
 
-// Reference camera 0 and `sources` sideways cameras around it, looking at the
-// slanted-planes world; depth range from the true depth widened by 10 %.
+// Reference camera 0 and `sources` sideways cameras around it (0.15 m
+// steps), looking into a fold of three textured slanted planes (two walls and
+// a floor meeting along creases); depth range from the true depth widened by
+// 10 %.
 SyntheticProblem makeSyntheticProblem(int width, int height, int sources, uint32_t seed = 1);
 
 }  // namespace amhmvs

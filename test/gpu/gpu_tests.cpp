@@ -10,6 +10,7 @@
 // DATA_DIR is the output of scripts/prepare_gpu_data.py.
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <random>
 #include <string>
@@ -42,7 +43,18 @@ void textureEmulation() {
     ys[i] = uy(rng);
   }
   const std::vector<float> gpu = sampleTextureOnGpu(image, xs, ys);
-  const mvs::HostImage8 host{image.data.data(), image.width, image.height};
+  if (const char* dump = std::getenv("AMHMVS_PROBE_DUMP")) {
+    // For offline analysis of the texture unit's arithmetic.
+    std::FILE* f = std::fopen(dump, "wb");
+    if (f) {
+      std::fwrite(image.data.data(), 1, image.data.size(), f);
+      std::fwrite(xs.data(), sizeof(float), xs.size(), f);
+      std::fwrite(ys.data(), sizeof(float), ys.size(), f);
+      std::fwrite(gpu.data(), sizeof(float), gpu.size(), f);
+      std::fclose(f);
+    }
+  }
+  const mvs::PaddedImage8 host(mvs::HostImage8{image.data.data(), image.width, image.height});
   double max_diff = 0, sum_diff = 0;
   for (size_t i = 0; i < xs.size(); ++i) {
     const double d = std::abs(mvs::textureBilinear(host, xs[i], ys[i]) - gpu[i]);

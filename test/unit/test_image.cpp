@@ -122,7 +122,7 @@ TEST(ResizeArea, ReproducesRealQuarterResolutionFountain) {
     sum_diff += d;
   }
   RecordProperty("max_diff", max_diff);
-  EXPECT_LE(sum_diff / ours.data.size(), 0.05);
+  EXPECT_LE(sum_diff / static_cast<double>(ours.data.size()), 0.05);
   EXPECT_LE(max_diff, 1);
 }
 

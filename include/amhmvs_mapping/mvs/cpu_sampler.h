@@ -7,7 +7,9 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "amhmvs_mapping/mvs/hd.h"
 
@@ -25,32 +27,90 @@ struct HostImage8 {
   }
 };
 
-// Bilinear sample at (x, y) in pixel-centre coordinates with clamp-to-edge,
-// weights quantised to 1/256 as the texture unit does.
-inline float textureBilinear(const HostImage8& image, float x, float y) {
-  const float fx = floorf(x), fy = floorf(y);
-  const float a = std::nearbyint((x - fx) * 256.0f) * (1.0f / 256.0f);
-  const float b = std::nearbyint((y - fy) * 256.0f) * (1.0f / 256.0f);
-  const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
-  const float t00 = image.at(ix, iy) * (1.0f / 255.0f), t10 = image.at(ix + 1, iy) * (1.0f / 255.0f);
-  const float t01 = image.at(ix, iy + 1) * (1.0f / 255.0f),
-              t11 = image.at(ix + 1, iy + 1) * (1.0f / 255.0f);
-  const float value = (1.0f - a) * (1.0f - b) * t00 + a * (1.0f - b) * t10 +
-                      (1.0f - a) * b * t01 + a * b * t11;
-  return value * 255.0f;
+// Coordinates are clamped to [-kCoordinateMargin, size + kCoordinateMargin]
+// before sampling; images are padded by kPadding replicated pixels, which
+// reproduces clamp-to-edge addressing without a test per sample. The offset
+// keeps the fixed-point value positive so that truncation is floor.
+constexpr float kCoordinateMargin = 2.0f;
+constexpr int kPadding = 4;
+constexpr int kFixedPointOffset = 1024;  // > 256 * kCoordinateMargin
+
+// An 8-bit image with kPadding replicated pixels on every side.
+struct PaddedImage8 {
+  std::vector<uint8_t> storage;
+  int width = 0, height = 0, stride = 0;
+  const uint8_t* origin = nullptr;  // pixel (0, 0)
+
+  explicit PaddedImage8(const HostImage8& image)
+      : storage(static_cast<size_t>(image.width + 2 * kPadding) * (image.height + 2 * kPadding)),
+        width(image.width), height(image.height), stride(image.width + 2 * kPadding) {
+    for (int y = -kPadding; y < height + kPadding; ++y) {
+      for (int x = -kPadding; x < width + kPadding; ++x) {
+        storage[static_cast<size_t>(y + kPadding) * stride + x + kPadding] =
+            static_cast<uint8_t>(image.at(x, y));
+      }
+    }
+    origin = storage.data() + static_cast<size_t>(kPadding) * stride + kPadding;
+  }
+  PaddedImage8(const PaddedImage8&) = delete;
+  PaddedImage8& operator=(const PaddedImage8&) = delete;
+};
+
+// Bilinear sample at (x, y) in pixel-centre coordinates, weights quantised
+// to 1/256 as the texture unit does: the coordinate is rounded to 1/256
+// pixel, whose integer part picks the texels and whose fraction is the
+// weight. (x, y) must lie within kCoordinateMargin of the image.
+inline float textureBilinear(const uint8_t* origin, int stride, float x, float y) {
+  const int qx = static_cast<int>(x * 256.0f + (kFixedPointOffset + 0.5f)) - kFixedPointOffset;
+  const int qy = static_cast<int>(y * 256.0f + (kFixedPointOffset + 0.5f)) - kFixedPointOffset;
+  const int ix = qx >> 8, iy = qy >> 8;  // arithmetic shift: floor division
+  const float a = static_cast<float>(qx & 255) * (1.0f / 256.0f);
+  const float b = static_cast<float>(qy & 255) * (1.0f / 256.0f);
+  const uint8_t* p = origin + static_cast<ptrdiff_t>(iy) * stride + ix;
+  const float t00 = p[0], t10 = p[1], t01 = p[stride], t11 = p[stride + 1];
+  const float top = t00 + a * (t10 - t00);
+  const float bottom = t01 + a * (t11 - t01);
+  return top + b * (bottom - top);
 }
+
+inline float textureBilinear(const PaddedImage8& image, float x, float y) {
+  const float lo = -kCoordinateMargin;
+  const float max_x = image.width + kCoordinateMargin, max_y = image.height + kCoordinateMargin;
+  x = x > lo ? (x < max_x ? x : max_x) : lo;
+  y = y > lo ? (y < max_y ? y : max_y) : lo;
+  return textureBilinear(image.origin, image.stride, x, y);
+}
+
+// One source image; hoisted out of the sample loop by matchingCost.
+struct CpuSourceView {
+  const uint8_t* origin;
+  int stride;
+  float max_x, max_y;
+
+  float sample(float x, float y) const {
+    // Far-off coordinates read the edge anyway; the comparisons also map NaN
+    // (a degenerate homography) to the edge.
+    const float lo = -kCoordinateMargin;
+    x = x > lo ? (x < max_x ? x : max_x) : lo;
+    y = y > lo ? (y < max_y ? y : max_y) : lo;
+    return textureBilinear(origin, stride, x, y);
+  }
+};
 
 struct CpuSampler {
   HostImage8 reference_image;
-  HostImage8 sources[32];
+  const PaddedImage8* sources[32];
 
-  float reference(int x, int y) const { return reference_image.at(x, y); }
-  float source(int view, float x, float y) const {
-    if (!(x == x) || !(y == y)) return 0.0f;  // NaN coordinates (degenerate homography)
-    // Keep far-off coordinates inside int range; clamping makes them edge reads anyway.
-    x = fminf(fmaxf(x, -2.0f), sources[view].width + 1.0f);
-    y = fminf(fmaxf(y, -2.0f), sources[view].height + 1.0f);
-    return textureBilinear(sources[view], x, y);
+  // Intensity at an integer pixel, -1 outside the image.
+  float reference(int x, int y) const {
+    const bool inside = x >= 0 && y >= 0 && x < reference_image.width && y < reference_image.height;
+    return inside ? static_cast<float>(reference_image.pixels[static_cast<size_t>(y) * reference_image.width + x])
+                  : -1.0f;
+  }
+  CpuSourceView sourceView(int view) const {
+    const PaddedImage8& image = *sources[view];
+    return {image.origin, image.stride, image.width + kCoordinateMargin,
+            image.height + kCoordinateMargin};
   }
 };
 

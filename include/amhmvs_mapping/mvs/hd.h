@@ -9,8 +9,10 @@
 
 #if defined(__CUDACC__)
 #define AMHMVS_HD __host__ __device__ __forceinline__
+#define AMHMVS_UNROLL _Pragma("unroll")
 #else
 #define AMHMVS_HD inline
+#define AMHMVS_UNROLL  // g++ -O3 unrolls the constant-count loops itself
 #endif
 
 namespace amhmvs {

@@ -33,6 +33,30 @@ struct CostParams {
   float sigma_spatial;
 };
 
+// Window shape: known at compile time for the paper's 11x11 window with
+// skipping (loops unroll, per-sample arrays stay in registers), or read from
+// CostParams at run time for any other option values.
+template <int kRadius, int kStep>
+struct FixedWindow {
+  AMHMVS_HD explicit FixedWindow(const CostParams&) {}
+  AMHMVS_HD static constexpr int radius() { return kRadius; }
+  AMHMVS_HD static constexpr int step() { return kStep; }
+  AMHMVS_HD static constexpr int perAxis() { return 2 * kRadius / kStep + 1; }
+};
+using PaperWindow = FixedWindow<5, 2>;
+
+struct RuntimeWindow {
+  int radius_, step_;
+  AMHMVS_HD explicit RuntimeWindow(const CostParams& p) : radius_(p.window_radius), step_(p.window_step) {}
+  AMHMVS_HD int radius() const { return radius_; }
+  AMHMVS_HD int step() const { return step_; }
+  AMHMVS_HD int perAxis() const { return 2 * radius_ / step_ + 1; }
+};
+
+inline bool isPaperWindow(const CostParams& p) {
+  return p.window_radius == PaperWindow::radius() && p.window_step == PaperWindow::step();
+}
+
 // Geometry of one source view relative to the reference camera:
 // A = K_s R K_r^-1 and b = K_s t, so that H = A - b q^T with q = K_r^-T n / d.
 struct SourceGeometry {
@@ -49,19 +73,29 @@ struct ReferenceWindow {
   bool textured;                  // variance >= kMinVariance
 };
 
-template <class Sampler>
+template <class Window, class Sampler>
 AMHMVS_HD void computeReferenceWindow(const Sampler& sampler, const CostParams& p, int x, int y,
                                       ReferenceWindow* win) {
+  const Window shape(p);
   const float centre = sampler.reference(x, y);
   const float color_scale = 1.0f / (2.0f * p.sigma_color * p.sigma_color);
   const float spatial_scale = 1.0f / (2.0f * p.sigma_spatial * p.sigma_spatial);
   int n = 0;
   float weight_sum = 0.0f;
-  for (int dy = -p.window_radius; dy <= p.window_radius; dy += p.window_step) {
-    for (int dx = -p.window_radius; dx <= p.window_radius; dx += p.window_step) {
-      const float v = sampler.reference(x + dx, y + dy) - centre;
-      const float w = expf(-fabsf(v) * color_scale -
-                           sqrtf(static_cast<float>(dx * dx + dy * dy)) * spatial_scale);
+  AMHMVS_UNROLL
+  for (int iy = 0; iy < shape.perAxis(); ++iy) {
+    const int dy = -shape.radius() + iy * shape.step();
+    AMHMVS_UNROLL
+    for (int ix = 0; ix < shape.perAxis(); ++ix) {
+      const int dx = -shape.radius() + ix * shape.step();
+      const float intensity = sampler.reference(x + dx, y + dy);
+      // Samples outside the reference image weigh nothing: there is nothing
+      // there to match (clamping would invent a texture the sources lack).
+      const bool inside = intensity >= 0.0f;
+      const float v = inside ? intensity - centre : 0.0f;
+      const float w = inside ? expf(-fabsf(v) * color_scale -
+                                    sqrtf(static_cast<float>(dx * dx + dy * dy)) * spatial_scale)
+                             : 0.0f;
       win->weight[n] = w;
       win->value[n] = v;
       weight_sum += w;
@@ -70,11 +104,13 @@ AMHMVS_HD void computeReferenceWindow(const Sampler& sampler, const CostParams& 
   }
   win->count = n;
   float mean = 0.0f;
+  AMHMVS_UNROLL
   for (int i = 0; i < n; ++i) {
     win->weight[i] /= weight_sum;
     mean += win->weight[i] * win->value[i];
   }
   float variance = 0.0f;  // two-pass: exact for flat windows
+  AMHMVS_UNROLL
   for (int i = 0; i < n; ++i) {
     const float c = win->value[i] - mean;
     variance += win->weight[i] * c * c;
@@ -94,11 +130,12 @@ AMHMVS_HD Vec3 planeTerm(const Intrinsics& k, const Plane& plane) {
 // Cost of hypothesis `plane` at reference pixel (x, y) against source `view`.
 // kMaxCost when either window is textureless, when the window centre maps
 // outside the source image, or when the point is behind the source camera.
-template <class Sampler>
+template <class Window, class Sampler>
 AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
                              const ReferenceWindow& win, const SourceGeometry& g, int view,
                              Vec3 q, int x, int y) {
   if (!win.textured) return kMaxCost;
+  const Window shape(p);
   // Rows of H = A - b q^T.
   const Vec3 h0 = {g.A.m[0] - g.b.x * q.x, g.A.m[1] - g.b.x * q.y, g.A.m[2] - g.b.x * q.z};
   const Vec3 h1 = {g.A.m[3] - g.b.y * q.x, g.A.m[4] - g.b.y * q.y, g.A.m[5] - g.b.y * q.z};
@@ -110,19 +147,24 @@ AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
   if (!(cu >= -0.5f && cv >= -0.5f && cu < g.width - 0.5f && cv < g.height - 0.5f)) {
     return kMaxCost;
   }
-  float sum_s = 0.0f, sum_ss = 0.0f, sum_rs = 0.0f, shift = 0.0f;
-  int i = 0;
-  for (int dy = -p.window_radius; dy <= p.window_radius; dy += p.window_step) {
+  // Source samples are centred on the value at the window centre: keeps the
+  // float moments accurate for weakly textured windows.
+  const auto source = sampler.sourceView(view);
+  const float shift = source.sample(cu, cv);
+  float sum_s = 0.0f, sum_ss = 0.0f, sum_rs = 0.0f;
+  AMHMVS_UNROLL
+  for (int iy = 0; iy < shape.perAxis(); ++iy) {
+    const int dy = -shape.radius() + iy * shape.step();
     // Homogeneous source point of the row start, then stepped along x.
-    const Vec3 row = {pc.x - p.window_radius, pc.y + dy, 1.0f};
+    const Vec3 row = {pc.x - shape.radius(), pc.y + dy, 1.0f};
     float hx = dot(h0, row), hy = dot(h1, row), hz = dot(h2, row);
-    const float step_x = h0.x * p.window_step, step_y = h1.x * p.window_step,
-                step_z = h2.x * p.window_step;
-    for (int dx = -p.window_radius; dx <= p.window_radius; dx += p.window_step) {
+    const float step_x = h0.x * shape.step(), step_y = h1.x * shape.step(),
+                step_z = h2.x * shape.step();
+    AMHMVS_UNROLL
+    for (int ix = 0; ix < shape.perAxis(); ++ix) {
+      const int i = iy * shape.perAxis() + ix;
       const float inv_z = 1.0f / hz;
-      float s = sampler.source(view, hx * inv_z, hy * inv_z);
-      if (i == 0) shift = s;  // centring keeps the float moments accurate
-      s -= shift;
+      const float s = source.sample(hx * inv_z, hy * inv_z) - shift;
       const float w = win.weight[i];
       sum_s += w * s;
       sum_ss += w * s * s;
@@ -130,7 +172,6 @@ AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
       hx += step_x;
       hy += step_y;
       hz += step_z;
-      ++i;
     }
   }
   const float var_s = sum_ss - sum_s * sum_s;
@@ -138,7 +179,7 @@ AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
   const float covariance = sum_rs - win.mean * sum_s;
   const float ncc = covariance / sqrtf(win.variance * var_s);
   const float cost = 1.0f - ncc;
-  return fminf(kMaxCost, fmaxf(0.0f, cost));
+  return cost < 0.0f ? 0.0f : (cost < kMaxCost ? cost : kMaxCost);
 }
 
 }  // namespace mvs

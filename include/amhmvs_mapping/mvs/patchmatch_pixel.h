@@ -4,8 +4,9 @@
 // backend (OpenMP loops over pixels) and the CUDA backend (one thread per
 // pixel) with a backend-specific Sampler:
 //
-//   float Sampler::reference(int x, int y) const;          // clamped, 0..255
-//   float Sampler::source(int view, float x, float y) const;  // bilinear, 0..255
+//   float Sampler::reference(int x, int y) const;    // 0..255, -1 outside
+//   SourceView Sampler::sourceView(int view) const;  // per source view:
+//   float SourceView::sample(float x, float y) const;  // bilinear, 0..255
 //
 // Schedule (paper section 3 and 4): random initialisation, then per iteration
 // a black and a red checkerboard pass; each pass runs, at every pixel of its
@@ -98,7 +99,7 @@ AMHMVS_HD Vec3 perturbNormal(const PatchMatchParams& P, Vec3 n, Vec3 ray, float 
 // Random plane (uniform depth in range, random normal facing the camera) and
 // its initial cost: the heuristic aggregation over all views (no selection
 // exists yet).
-template <class Sampler>
+template <class Window, class Sampler>
 AMHMVS_HD void initializePixel(const PatchMatchParams& P, const Sampler& sampler,
                                PixelState state, int x, int y) {
   const int index = y * P.width + x;
@@ -108,11 +109,11 @@ AMHMVS_HD void initializePixel(const PatchMatchParams& P, const Sampler& sampler
   const Plane plane = planeFromDepthNormal(randomNormal(P, ray, &rng), depth, ray);
 
   ReferenceWindow win;
-  computeReferenceWindow(sampler, P.cost, x, y, &win);
+  computeReferenceWindow<Window>(sampler, P.cost, x, y, &win);
   const Vec3 q = planeTerm(P.K, plane);
   float costs[32];
   for (int j = 0; j < P.num_sources; ++j) {
-    costs[j] = matchingCost(sampler, P.cost, win, P.sources[j], j, q, x, y);
+    costs[j] = matchingCost<Window>(sampler, P.cost, win, P.sources[j], j, q, x, y);
   }
   ViewWeights heuristic;
   heuristic.heuristic = true;
@@ -126,14 +127,14 @@ AMHMVS_HD void initializePixel(const PatchMatchParams& P, const Sampler& sampler
 
 // Scores `plane` at the pixel with the pixel's view weights: costs of views
 // that carry weight only (all views in heuristic mode).
-template <class Sampler>
+template <class Window, class Sampler>
 AMHMVS_HD float scoreHypothesis(const PatchMatchParams& P, const Sampler& sampler,
                                 const ReferenceWindow& win, const ViewWeights& weights,
                                 const Plane& plane, int x, int y) {
   const Vec3 q = planeTerm(P.K, plane);
   float costs[32];
   for (int j = 0; j < P.num_sources; ++j) {
-    costs[j] = needsView(weights, j) ? matchingCost(sampler, P.cost, win, P.sources[j], j, q, x, y)
+    costs[j] = needsView(weights, j) ? matchingCost<Window>(sampler, P.cost, win, P.sources[j], j, q, x, y)
                                      : kMaxCost;
   }
   return aggregateCost(P.selection, weights, costs, P.num_sources);
@@ -165,13 +166,13 @@ AMHMVS_HD int propagateCandidates(const PatchMatchParams& P, PixelState state, i
   return count;
 }
 
-template <class Sampler>
+template <class Window, class Sampler>
 AMHMVS_HD void updatePixel(const PatchMatchParams& P, const Sampler& sampler, PixelState state,
                            int iteration, int x, int y) {
   const int index = y * P.width + x;
   const Vec3 ray = pixelRay(P.K, static_cast<float>(x), static_cast<float>(y));
   ReferenceWindow win;
-  computeReferenceWindow(sampler, P.cost, x, y, &win);
+  computeReferenceWindow<Window>(sampler, P.cost, x, y, &win);
   if (!win.textured) return;  // nothing can be scored here: keep the state
 
   // Cost matrix of the propagated hypotheses (eq. 8).
@@ -181,7 +182,7 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const Sampler& sampler, Pi
   for (int i = 0; i < rows; ++i) {
     const Vec3 q = planeTerm(P.K, hypotheses[i]);
     for (int j = 0; j < P.num_sources; ++j) {
-      matrix[i * 32 + j] = matchingCost(sampler, P.cost, win, P.sources[j], j, q, x, y);
+      matrix[i * 32 + j] = matchingCost<Window>(sampler, P.cost, win, P.sources[j], j, q, x, y);
     }
   }
 
@@ -199,7 +200,7 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const Sampler& sampler, Pi
   // Current plane, re-scored with this pass's weights, against the best
   // propagated hypothesis (eq. 14).
   Plane plane = state.plane[index];
-  float cost = scoreHypothesis(P, sampler, win, weights, plane, x, y);
+  float cost = scoreHypothesis<Window>(P, sampler, win, weights, plane, x, y);
   for (int i = 0; i < rows; ++i) {
     const float c = aggregateCost(P.selection, weights, &matrix[i * 32], P.num_sources);
     if (c < cost) {
@@ -215,7 +216,7 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const Sampler& sampler, Pi
     const Plane candidate = planeFromDepthNormal(candidate_normal, candidate_depth, ray);
     float d;
     if (!acceptableHypothesis(P, candidate, ray, &d)) return;
-    const float c = scoreHypothesis(P, sampler, win, weights, candidate, x, y);
+    const float c = scoreHypothesis<Window>(P, sampler, win, weights, candidate, x, y);
     if (c < cost) {
       cost = c;
       plane = candidate;
