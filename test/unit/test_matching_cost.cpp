@@ -82,15 +82,17 @@ double pixelAt(const ImageU8& image, int x, int y) {
   return image.at(x, y);
 }
 
-// Own bilinear sample, clamp to edge, weights quantised to 1/256 like the
-// texture unit (not mvs::textureBilinear).
+// Own bilinear sample, clamp to edge, as the texture unit filters (not
+// mvs::textureBilinear): fractions a, b rounded to 1/256, and each of the
+// four weights (1-a)(1-b), a(1-b), (1-a)b, ab rounded half to even to 1/256.
 double bilinear(const ImageU8& image, double x, double y) {
-  const double fx = std::floor(x), fy = std::floor(y);
-  const double a = std::nearbyint((x - fx) * 256.0) / 256.0;
-  const double b = std::nearbyint((y - fy) * 256.0) / 256.0;
+  const double qx = std::floor(x * 256.0 + 0.5), qy = std::floor(y * 256.0 + 0.5);
+  const double fx = std::floor(qx / 256.0), fy = std::floor(qy / 256.0);
+  const double a = (qx - 256.0 * fx) / 256.0, b = (qy - 256.0 * fy) / 256.0;
+  auto q = [](double w) { return std::nearbyint(w * 256.0) / 256.0; };  // ties to even
   const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
-  return (1 - a) * (1 - b) * pixelAt(image, ix, iy) + a * (1 - b) * pixelAt(image, ix + 1, iy) +
-         (1 - a) * b * pixelAt(image, ix, iy + 1) + a * b * pixelAt(image, ix + 1, iy + 1);
+  return q((1 - a) * (1 - b)) * pixelAt(image, ix, iy) + q(a * (1 - b)) * pixelAt(image, ix + 1, iy) +
+         q((1 - a) * b) * pixelAt(image, ix, iy + 1) + q(a * b) * pixelAt(image, ix + 1, iy + 1);
 }
 
 struct DPlane {

@@ -56,21 +56,25 @@ struct PaddedImage8 {
   PaddedImage8& operator=(const PaddedImage8&) = delete;
 };
 
-// Bilinear sample at (x, y) in pixel-centre coordinates, weights quantised
-// to 1/256 as the texture unit does: the coordinate is rounded to 1/256
-// pixel, whose integer part picks the texels and whose fraction is the
-// weight. (x, y) must lie within kCoordinateMargin of the image.
+// Bilinear sample at (x, y) in pixel-centre coordinates, as the texture unit
+// computes it (measured on an H100 by test/gpu/gpu_tests.cpp): the
+// coordinates are rounded to 1/256 pixel, whose integer parts pick the texels
+// and whose fractions a, b (in 1/256) give the four weights (1-a)(1-b),
+// a(1-b), (1-a)b, ab, each rounded half-to-even to 1/256. All in integers.
+// (x, y) must lie within kCoordinateMargin of the image.
 inline float textureBilinear(const uint8_t* origin, int stride, float x, float y) {
   const int qx = static_cast<int>(x * 256.0f + (kFixedPointOffset + 0.5f)) - kFixedPointOffset;
   const int qy = static_cast<int>(y * 256.0f + (kFixedPointOffset + 0.5f)) - kFixedPointOffset;
   const int ix = qx >> 8, iy = qy >> 8;  // arithmetic shift: floor division
-  const float a = static_cast<float>(qx & 255) * (1.0f / 256.0f);
-  const float b = static_cast<float>(qy & 255) * (1.0f / 256.0f);
+  const int a = qx & 255, b = qy & 255;
+  auto weight = [](int product) {  // product / 256, rounded half to even
+    return (product + 127 + ((product >> 8) & 1)) >> 8;
+  };
+  const int w00 = weight((256 - a) * (256 - b)), w10 = weight(a * (256 - b));
+  const int w01 = weight((256 - a) * b), w11 = weight(a * b);
   const uint8_t* p = origin + static_cast<ptrdiff_t>(iy) * stride + ix;
-  const float t00 = p[0], t10 = p[1], t01 = p[stride], t11 = p[stride + 1];
-  const float top = t00 + a * (t10 - t00);
-  const float bottom = t01 + a * (t11 - t01);
-  return top + b * (bottom - top);
+  const int sum = w00 * p[0] + w10 * p[1] + w01 * p[stride] + w11 * p[stride + 1];
+  return static_cast<float>(sum) * (1.0f / 256.0f);
 }
 
 inline float textureBilinear(const PaddedImage8& image, float x, float y) {
