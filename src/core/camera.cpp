@@ -32,6 +32,11 @@ std::string PinholeCamera::validate() const {
     why << "principal point is not finite";
   } else if (width <= 0 || height <= 0) {
     why << "image size must be positive (" << width << "x" << height << ")";
+  } else if (cx < 0 || cy < 0 || cx > width || cy > height) {
+    // A principal point off the image means the image is not the one the
+    // intrinsics were calibrated for (wrong file, or a resized image).
+    why << "principal point (" << cx << ", " << cy << ") lies outside the " << width << "x"
+        << height << " image: the image does not match its camera";
   } else if (!R.allFinite() || !t.allFinite()) {
     why << "pose contains non-finite values";
   } else {

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/eval/depth_metrics.h"
 #include "amhmvs_mapping/io/colmap_model.h"
 #include "amhmvs_mapping/io/colormap.h"
 #include "amhmvs_mapping/io/image_io.h"
@@ -37,6 +38,21 @@ std::string viewFolderName(int view_id) {
   char name[16];
   std::snprintf(name, sizeof(name), "%08d", view_id);
   return name;
+}
+
+// Ground truth sampled at the processed resolution (nearest pixel).
+ImageF groundTruthAt(const std::string& path, int width, int height) {
+  const ImageF full = readPfm(path);
+  if (full.sameSize(width, height)) return full;
+  ImageF out(width, height);
+  for (int y = 0; y < height; ++y) {
+    const int sy = std::min(full.height - 1, static_cast<int>((y + 0.5) * full.height / height));
+    for (int x = 0; x < width; ++x) {
+      const int sx = std::min(full.width - 1, static_cast<int>((x + 0.5) * full.width / width));
+      out.at(x, y) = full.at(sx, sy);
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -102,6 +118,7 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
     }
   }
   int written = 0;
+  AccuracyCounts pooled;
   for (size_t i = 0; i < ids.size(); ++i) {
     const DepthProblem problem = makeDepthProblem(scene, ids[i], options.problem);
     DepthMap map = estimator.estimate(problem);
@@ -109,12 +126,25 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
     if (!output_dir.empty()) writeDepthOutputs(output_dir, ids[i], problem, map);
     if (on_result) on_result(ids[i], problem, map);
     ++written;
+    std::string accuracy;
+    if (!options.ground_truth_dir.empty()) {
+      const ImageF truth =
+          groundTruthAt(options.ground_truth_dir + "/" + viewFolderName(ids[i]) + ".pfm",
+                        map.depth.width, map.depth.height);
+      const AccuracyCounts counts = denseDepthAccuracy(map.depth, truth, nullptr);
+      pooled.merge(counts);
+      accuracy = ", within 1/2/5 % of ground truth: " + counts.percentages() + " %";
+    }
     if (!options.quiet) {
-      std::fprintf(stderr, "[%zu/%zu] view %s: %dx%d, %zu sources, depth [%.3g, %.3g] m, %.0f ms\n",
+      std::fprintf(stderr, "[%zu/%zu] view %s: %dx%d, %zu sources, depth [%.3g, %.3g] m, %.0f ms%s\n",
                    i + 1, ids.size(), viewFolderName(ids[i]).c_str(), problem.reference_camera.width,
                    problem.reference_camera.height, problem.source_cameras.size(), problem.depth_min,
-                   problem.depth_max, map.milliseconds);
+                   problem.depth_max, map.milliseconds, accuracy.c_str());
     }
+  }
+  if (!options.ground_truth_dir.empty()) {
+    std::fprintf(stderr, "depth accuracy over %d maps (%ld pixels): within 1/2/5 %%: %s %%\n",
+                 written, pooled.total, pooled.percentages().c_str());
   }
   return written;
 }
@@ -168,6 +198,7 @@ DepthJobOptions parseDepthJobArguments(const std::vector<std::string>& arguments
     else if (name == "depth_max") options.problem.depth_max = parseValue<double>(name, value);
     else if (name == "backend") options.backend = parseBackend(value);
     else if (name == "max_cost") options.max_cost = parseValue<float>(name, value);
+    else if (name == "ground_truth") options.ground_truth_dir = value;
     else {
       bool known = false;
       for (const OptionInfo& info : patchMatchOptionTable()) {
@@ -203,6 +234,7 @@ std::string depthJobUsage() {
          "  --depth_min M --depth_max M   override the views' depth ranges (metres)\n"
          "  --backend auto|cuda|cpu compute backend (default auto: CUDA if a GPU is usable)\n"
          "  --max_cost C            mask pixels whose cost exceeds C (default 0: no mask)\n"
+         "  --ground_truth DIR      report accuracy against DIR/NNNNNNNN.pfm z-depth maps\n"
          "  --quiet                 no progress on stderr\n\n"
          "Method options (defaults are the paper's):\n"
       << describe(PatchMatchOptions());

@@ -23,6 +23,9 @@ struct DepthJobOptions {
   std::vector<int> reference_ids;  // empty: every view with sources
   float max_cost = 0;              // > 0: depth NaN where cost exceeds it
   bool quiet = false;
+  // Folder of ground-truth z-depth maps NNNNNNNN.pfm (any resolution): when
+  // set, accuracy is reported per view and pooled.
+  std::string ground_truth_dir;
 };
 
 // Writes OUTPUT_DIR/<8-digit id>/ depth.pfm, normal.pfm, cost.pfm, depth.png

@@ -8,8 +8,6 @@
 
 namespace amhmvs {
 
-namespace {
-
 // Three textured slanted planes that meet along creases, seen from inside the
 // fold: a left and a right wall at 2.5..4 m and a floor 1.2 m below the
 // camera. Depth is continuous everywhere (no occlusion boundary), so every
@@ -37,8 +35,6 @@ SyntheticWorld makeFoldedPlanesWorld(uint32_t seed) {
   world.planes.push_back(floor);
   return world;
 }
-
-}  // namespace
 
 SyntheticProblem makeSyntheticProblem(int width, int height, int sources, uint32_t seed) {
   const SyntheticWorld world = makeFoldedPlanesWorld(seed);

@@ -5,9 +5,14 @@
 #include <cstdint>
 
 #include "amhmvs_mapping/core/image.h"
+#include "amhmvs_mapping/core/synthetic_scene.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 
 namespace amhmvs {
+
+// Three textured slanted planes that meet along creases (two walls at
+// 2.5..4 m and a floor), for cameras near the origin looking along +z.
+SyntheticWorld makeFoldedPlanesWorld(uint32_t seed);
 
 struct SyntheticProblem {
   DepthProblem problem;

@@ -166,6 +166,18 @@ AMHMVS_HD int propagateCandidates(const PatchMatchParams& P, PixelState state, i
   return count;
 }
 
+AMHMVS_HD bool samePlane(const Plane& a, const Plane& b) {
+  return a.n.x == b.n.x && a.n.y == b.n.y && a.n.z == b.n.z && a.d == b.d;
+}
+
+// Index of the first of planes[0..i] equal to planes[i] (i when none before).
+AMHMVS_HD int firstEqualPlane(const Plane* planes, int i) {
+  for (int k = 0; k < i; ++k) {
+    if (samePlane(planes[k], planes[i])) return k;
+  }
+  return i;
+}
+
 template <class Window, class Sampler>
 AMHMVS_HD void updatePixel(const PatchMatchParams& P, const Sampler& sampler, PixelState state,
                            int iteration, int x, int y) {
@@ -175,11 +187,19 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const Sampler& sampler, Pi
   computeReferenceWindow<Window>(sampler, P.cost, x, y, &win);
   if (!win.textured) return;  // nothing can be scored here: keep the state
 
-  // Cost matrix of the propagated hypotheses (eq. 8).
-  Plane hypotheses[kNumRegions];
+  // Cost matrix of the propagated hypotheses (eq. 8); one spare slot for the
+  // current plane.
+  Plane hypotheses[kNumRegions + 1];
   const int rows = propagateCandidates(P, state, x, y, ray, hypotheses);
   float matrix[kNumRegions * 32];
   for (int i = 0; i < rows; ++i) {
+    // Propagation copies planes verbatim, so converged areas offer the same
+    // plane from several regions: score each distinct plane once.
+    const int same = firstEqualPlane(hypotheses, i);
+    if (same < i) {
+      for (int j = 0; j < P.num_sources; ++j) matrix[i * 32 + j] = matrix[same * 32 + j];
+      continue;
+    }
     const Vec3 q = planeTerm(P.K, hypotheses[i]);
     for (int j = 0; j < P.num_sources; ++j) {
       matrix[i * 32 + j] = matchingCost<Window>(sampler, P.cost, win, P.sources[j], j, q, x, y);
@@ -200,7 +220,10 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const Sampler& sampler, Pi
   // Current plane, re-scored with this pass's weights, against the best
   // propagated hypothesis (eq. 14).
   Plane plane = state.plane[index];
-  float cost = scoreHypothesis<Window>(P, sampler, win, weights, plane, x, y);
+  hypotheses[rows] = plane;
+  const int same = firstEqualPlane(hypotheses, rows);
+  float cost = same < rows ? aggregateCost(P.selection, weights, &matrix[same * 32], P.num_sources)
+                           : scoreHypothesis<Window>(P, sampler, win, weights, plane, x, y);
   for (int i = 0; i < rows; ++i) {
     const float c = aggregateCost(P.selection, weights, &matrix[i * 32], P.num_sources);
     if (c < cost) {

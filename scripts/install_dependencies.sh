@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages that amhmvs_mapping needs (ROS 1 from
+# Debian's own packages, Eigen, OpenCV, PCL, gtest, COLMAP for the COLMAP
+# input tests). Installs only what is missing; needs root (or sudo).
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config git
+  catkin python3-catkin-pkg python3-rospkg python3-empy ros-base-dev
+  ros-message-generation ros-message-runtime
+  libnodeletlib-dev libnodeletlib-tools libnodelet-dev python3-nodelet
+  libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev python3-tf2-ros
+  libcv-bridge-dev libimage-transport-dev libimage-geometry-dev image-transport-tools
+  libpcl-ros-dev libpcl-dev
+  python3-rostest rosbash librosbag-dev python3-rosbag python3-roslaunch
+  libdiagnostic-updater-dev python3-diagnostic-updater
+  libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
+  ros-sensor-msgs ros-geometry-msgs ros-nav-msgs ros-visualization-msgs
+  ros-std-srvs libstd-srvs-dev python3-std-srvs
+  libmessage-filters-dev python3-message-filters
+  python3-sensor-msgs python3-geometry-msgs python3-nav-msgs
+  libeigen3-dev libopencv-dev libgtest-dev googletest python3-numpy python3-opencv
+  colmap
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install_dependencies: all ${#packages[@]} packages present"
+  exit 0
+fi
+sudo=""
+[ "$(id -u)" = 0 ] || sudo=sudo
+echo "install_dependencies: installing ${#missing[@]} packages: ${missing[*]}"
+$sudo apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
