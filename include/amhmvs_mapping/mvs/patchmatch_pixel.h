@@ -166,6 +166,16 @@ AMHMVS_HD int propagateCandidates(const PatchMatchParams& P, PixelState state, i
   return count;
 }
 
+// Scoring a plane twice gives the same costs, so a duplicate's costs can be
+// copied. That saves time on the CPU; on the GPU the threads of a warp run in
+// lock step, so one thread skipping saves nothing and the check costs
+// registers. The results are identical either way.
+#if defined(__CUDA_ARCH__)
+constexpr bool kSkipDuplicatePlanes = false;
+#else
+constexpr bool kSkipDuplicatePlanes = true;
+#endif
+
 AMHMVS_HD bool samePlane(const Plane& a, const Plane& b) {
   return a.n.x == b.n.x && a.n.y == b.n.y && a.n.z == b.n.z && a.d == b.d;
 }
@@ -195,7 +205,7 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const Sampler& sampler, Pi
   for (int i = 0; i < rows; ++i) {
     // Propagation copies planes verbatim, so converged areas offer the same
     // plane from several regions: score each distinct plane once.
-    const int same = firstEqualPlane(hypotheses, i);
+    const int same = kSkipDuplicatePlanes ? firstEqualPlane(hypotheses, i) : i;
     if (same < i) {
       for (int j = 0; j < P.num_sources; ++j) matrix[i * 32 + j] = matrix[same * 32 + j];
       continue;
@@ -221,7 +231,7 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const Sampler& sampler, Pi
   // propagated hypothesis (eq. 14).
   Plane plane = state.plane[index];
   hypotheses[rows] = plane;
-  const int same = firstEqualPlane(hypotheses, rows);
+  const int same = kSkipDuplicatePlanes ? firstEqualPlane(hypotheses, rows) : rows;
   float cost = same < rows ? aggregateCost(P.selection, weights, &matrix[same * 32], P.num_sources)
                            : scoreHypothesis<Window>(P, sampler, win, weights, plane, x, y);
   for (int i = 0; i < rows; ++i) {
