@@ -45,8 +45,11 @@ set(AMHMVS_CORE_SOURCES
   src/mvs/depth_estimator.cpp
   src/mvs/cpu_backend.cpp
   src/mvs/problem_builder.cpp
-  src/eval/depth_metrics.cpp
 )
+# The mapping core (keyframes, source selection, fusion, map) and further
+# metrics: every .cpp of these folders belongs to the core.
+file(GLOB AMHMVS_MAPPING_SOURCES CONFIGURE_DEPENDS src/mapping/*.cpp src/eval/*.cpp)
+list(APPEND AMHMVS_CORE_SOURCES ${AMHMVS_MAPPING_SOURCES})
 if(AMHMVS_HAVE_CUDA)
   list(APPEND AMHMVS_CORE_SOURCES cuda/cuda_backend.cu)
 else()
