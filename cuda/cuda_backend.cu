@@ -40,6 +40,13 @@ struct GpuSampler {
 };
 
 constexpr int kBlockX = 16, kBlockY = 8;
+// Minimum resident blocks per multiprocessor asked of the compiler for the
+// update kernel, which caps its registers (65536 / (128 * blocks)). More
+// resident warps hide texture latency; too few registers spill. Measured by
+// scripts/gpu_check.sh (step "variants").
+#ifndef AMHMVS_UPDATE_MIN_BLOCKS
+#define AMHMVS_UPDATE_MIN_BLOCKS 4
+#endif
 
 template <class Window>
 __global__ void initializeKernel(PatchMatchParams P, GpuSampler sampler, PixelState state) {
@@ -50,7 +57,7 @@ __global__ void initializeKernel(PatchMatchParams P, GpuSampler sampler, PixelSt
 
 // One thread per pixel of `colour`: thread column i handles x = 2 i + parity.
 template <class Window>
-__global__ void updateKernel(PatchMatchParams P, GpuSampler sampler, PixelState state,
+__global__ void __launch_bounds__(kBlockX * kBlockY, AMHMVS_UPDATE_MIN_BLOCKS) updateKernel(PatchMatchParams P, GpuSampler sampler, PixelState state,
                              int iteration, int colour) {
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
   const int x = 2 * (blockIdx.x * blockDim.x + threadIdx.x) + ((y + colour) & 1);

@@ -47,6 +47,27 @@ if [[ " $steps " == *" sanitize "* ]]; then
     [ $rc = 0 ] && echo "PASS  compute-sanitizer $tool clean" || { echo "FAIL  compute-sanitizer $tool (rc $rc)"; status=1; }
   done
 fi
+if [[ " $steps " == *" profile "* ]]; then
+  # Nsight Compute on one update pass of fountain x0.25 (clocks left alone).
+  echo "== ncu: updateKernel, fountain x0.25 =="
+  ncu --clock-control none --kernel-name regex:updateKernel --launch-skip 6 --launch-count 1 \
+    --section SpeedOfLight --section Occupancy --section LaunchStats --section MemoryWorkloadAnalysis \
+    --section ComputeWorkloadAnalysis --section WarpStateStats \
+    "$bin/amhmvs_benchmark" "$data" --only fountain_x0.25 --runs 1 > "$out/ncu.txt" 2>&1
+  grep -vE "^==PROF==|^ +-+ " "$out/ncu.txt" | grep -E "Throughput|Occupancy|Registers|Stack|Warp Cycles|Stall|L1|L2|DRAM|Duration|Pipe|Texture|Eligible|Issued|Block Limit|Local" | head -60
+fi
+if [[ " $steps " == *" variants "* ]]; then
+  # Register caps of the update kernel (minimum resident blocks per SM).
+  echo "== variants: update kernel register cap =="
+  for blocks in ${AMHMVS_VARIANT_BLOCKS:-1 4 5 6}; do
+    vb=/tmp/amhmvs_build_b$blocks
+    cmake -S "$here" -B $vb -DAMHMVS_CORE_ONLY=ON -DCMAKE_BUILD_TYPE=Release -DAMHMVS_CUDA_ARCHITECTURES="$arch" \
+      -DCMAKE_CUDA_FLAGS="-Xptxas -v -DAMHMVS_UPDATE_MIN_BLOCKS=$blocks" > /dev/null 2>&1
+    cmake --build $vb -j 16 --target amhmvs_benchmark > "$out/build_b$blocks.log" 2>&1 || { echo "build failed"; continue; }
+    echo "-- min blocks $blocks: $(grep -A2 'Function properties for.*updateKernel.*FixedWindow' "$out/build_b$blocks.log" | grep -oE '[0-9]+ bytes spill stores|Used [0-9]+ registers' | tr '\n' ' ')"
+    $vb/amhmvs_benchmark "$data" --only fountain_x0.25 --runs 5 --out /dev/null | grep fountain
+  done
+fi
 if [[ " $steps " == *" bench "* ]]; then
   echo "== benchmark =="
   "$bin/amhmvs_benchmark" "$data" --out "$out/benchmark.md" --runs 5 --cpu-threads 2 || status=1

@@ -5,6 +5,7 @@
 // warm-up. CPU times use steady_clock with the given thread count.
 //
 // usage: amhmvs_benchmark [DATA_DIR] [--out FILE] [--runs N] [--cpu-threads N] [--quick]
+//                         [--only SCENE]   (e.g. fountain_x0.25, synthetic; for profiling)
 // DATA_DIR holds mvsnet/fountain_x0.25, fountain_x0.5, fountain_x1 dense
 // folders with decodable images (see scripts/prepare_gpu_data.py); rows whose
 // folder is missing are skipped.
@@ -73,8 +74,13 @@ int main(int argc, char** argv) {
   std::string data, out_path = "benchmark.md";
   int runs = 5, cpu_threads = 2;
   bool quick = false;
+  std::string only;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    if (a == "--only" && i + 1 < argc) {
+      only = argv[++i];
+      continue;
+    }
     if (a == "--out" && i + 1 < argc) out_path = argv[++i];
     else if (a == "--runs" && i + 1 < argc) runs = std::max(1, std::atoi(argv[++i]));
     else if (a == "--cpu-threads" && i + 1 < argc) cpu_threads = std::max(1, std::atoi(argv[++i]));
@@ -88,19 +94,23 @@ int main(int argc, char** argv) {
     if (gpu) {
       for (const char* name : {"fountain_x0.25", "fountain_x0.5", "fountain_x1"}) {
         const std::string folder = data + "/mvsnet/" + name;
-        if (data.empty() || !exists(folder)) continue;
+        if (data.empty() || !exists(folder) || (!only.empty() && only != name)) continue;
         const Scene scene = readInputFolder(folder, 10);
         const DepthProblem problem = makeDepthProblem(scene, 5, ProblemOptions());
         for (int iterations : {6, 3}) rows.push_back(measure(name, problem, Backend::kCuda, iterations, runs, 0));
         std::fprintf(stderr, "%s done\n", name);
       }
-      const SyntheticProblem vga = makeSyntheticProblem(640, 480, 4);
-      for (int iterations : {6, 3}) {
-        rows.push_back(measure("synthetic", vga.problem, Backend::kCuda, iterations, runs, 0));
+      if (only.empty() || only == "synthetic") {
+        const SyntheticProblem vga = makeSyntheticProblem(640, 480, 4);
+        for (int iterations : {6, 3}) {
+          rows.push_back(measure("synthetic", vga.problem, Backend::kCuda, iterations, runs, 0));
+        }
       }
     }
-    const SyntheticProblem qvga = makeSyntheticProblem(320, 240, 4);
-    rows.push_back(measure("synthetic", qvga.problem, Backend::kCpu, 6, quick ? 1 : runs, cpu_threads));
+    if (only.empty() || only == "cpu") {
+      const SyntheticProblem qvga = makeSyntheticProblem(320, 240, 4);
+      rows.push_back(measure("synthetic", qvga.problem, Backend::kCpu, 6, quick ? 1 : runs, cpu_threads));
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "amhmvs_benchmark: %s\n", e.what());
     return 1;
