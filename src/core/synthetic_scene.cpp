@@ -514,19 +514,24 @@ PinholeCamera makeLookAtCamera(const Eigen::Vector3d& eye, const Eigen::Vector3d
   return cam;
 }
 
+SyntheticPlane makeTexturedQuad(const Eigen::Vector3d& origin, const Eigen::Vector3d& axis_u,
+                                const Eigen::Vector3d& axis_v, uint32_t texture_seed,
+                                double texture_scale, double texture_contrast) {
+  SyntheticPlane plane;
+  plane.origin = origin;
+  plane.axis_u = axis_u;
+  plane.axis_v = axis_v;
+  plane.texture_seed = texture_seed;
+  plane.texture_scale = texture_scale;
+  plane.texture_contrast = texture_contrast;
+  return plane;
+}
+
 SyntheticWorld makeSlantedPlanesWorld(uint32_t seed) {
   SplitMix rng(seed);
   SyntheticWorld world;
   auto quad = [&](const Eigen::Vector3d& o, const Eigen::Vector3d& u, const Eigen::Vector3d& v,
-                  double scale) {
-    SyntheticPlane pl;
-    pl.origin = o;
-    pl.axis_u = u;
-    pl.axis_v = v;
-    pl.texture_seed = rng.next32();
-    pl.texture_scale = scale;
-    world.planes.push_back(pl);
-  };
+                  double scale) { world.planes.push_back(makeTexturedQuad(o, u, v, rng.next32(), scale)); };
   auto jitter = [&](double amount) {
     return Eigen::Vector3d(rng.uniform(-amount, amount), rng.uniform(-amount, amount),
                            rng.uniform(-amount, amount));
@@ -574,14 +579,7 @@ SyntheticWorld makeIndoorRoomWorld(uint32_t seed) {
   const double lx = 6.0, ly = 5.0, lz = 2.6;
   auto quad = [&](const Eigen::Vector3d& o, const Eigen::Vector3d& u, const Eigen::Vector3d& v,
                   double scale, double contrast = 1.0) {
-    SyntheticPlane pl;
-    pl.origin = o;
-    pl.axis_u = u;
-    pl.axis_v = v;
-    pl.texture_seed = rng.next32();
-    pl.texture_scale = scale;
-    pl.texture_contrast = contrast;
-    world.planes.push_back(pl);
+    world.planes.push_back(makeTexturedQuad(o, u, v, rng.next32(), scale, contrast));
   };
   // Floor and ceiling.
   quad({0, 0, 0}, {lx, 0, 0}, {0, ly, 0}, 0.08);

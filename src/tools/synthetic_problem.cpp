@@ -15,24 +15,13 @@ namespace amhmvs {
 SyntheticWorld makeFoldedPlanesWorld(uint32_t seed) {
   SyntheticWorld world;
   const double texture = 0.08;  // finest texture feature, metres (~6 px at 320x240)
+  // Walls from the crease x = 0, z = 4 down to the floor at y = 1.2.
   auto wall = [&](double x_end, double z_end, uint32_t texture_seed) {
-    SyntheticPlane p;
-    p.origin = Eigen::Vector3d(0, -6, 4);
-    p.axis_u = Eigen::Vector3d(x_end, 0, z_end - 4);
-    p.axis_v = Eigen::Vector3d(0, 7.2, 0);  // down to the floor at y = 1.2
-    p.texture_seed = texture_seed;
-    p.texture_scale = texture;
-    return p;
+    return makeTexturedQuad({0, -6, 4}, {x_end, 0, z_end - 4}, {0, 7.2, 0}, texture_seed, texture);
   };
   world.planes.push_back(wall(-6, 2.5, seed * 3 + 1));  // left wall, z = 4 + 0.25 x
   world.planes.push_back(wall(6, 2.8, seed * 3 + 2));   // right wall, z = 4 - 0.2 x
-  SyntheticPlane floor;
-  floor.origin = Eigen::Vector3d(-8, 1.2, 0);
-  floor.axis_u = Eigen::Vector3d(16, 0, 0);
-  floor.axis_v = Eigen::Vector3d(0, 0, 6);
-  floor.texture_seed = seed * 3 + 3;
-  floor.texture_scale = texture;
-  world.planes.push_back(floor);
+  world.planes.push_back(makeTexturedQuad({-8, 1.2, 0}, {16, 0, 0}, {0, 0, 6}, seed * 3 + 3, texture));
   return world;
 }
 

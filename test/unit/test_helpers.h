@@ -10,6 +10,8 @@
 #include <random>
 #include <string>
 
+#include "amhmvs_mapping/core/image.h"
+
 namespace amhmvs {
 namespace test {
 
@@ -65,6 +67,14 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// An image of uniformly random bytes, reproducible from `seed`.
+inline ImageU8 randomImage(int width, int height, int channels, unsigned seed) {
+  std::mt19937 rng(seed);
+  ImageU8 image(width, height, channels);
+  for (auto& v : image.data) v = static_cast<uint8_t>(rng() & 0xFF);
+  return image;
+}
 
 }  // namespace test
 }  // namespace amhmvs

@@ -14,12 +14,7 @@
 namespace amhmvs {
 namespace {
 
-ImageU8 randomImage(int w, int h, int c, unsigned seed) {
-  std::mt19937 rng(seed);
-  ImageU8 image(w, h, c);
-  for (auto& v : image.data) v = static_cast<uint8_t>(rng() & 0xFF);
-  return image;
-}
+using test::randomImage;
 
 TEST(ToGray, Bt601WeightsRounded) {
   ImageU8 rgb(5, 1, 3);

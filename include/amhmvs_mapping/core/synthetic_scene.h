@@ -37,6 +37,11 @@ struct SyntheticPlane {
   double texture_contrast = 1.0;  // 1: full contrast; < 1: weakly textured
 };
 
+// A bounded textured quad origin + a u + b v, a, b in [0, 1].
+SyntheticPlane makeTexturedQuad(const Eigen::Vector3d& origin, const Eigen::Vector3d& axis_u,
+                                const Eigen::Vector3d& axis_v, uint32_t texture_seed,
+                                double texture_scale, double texture_contrast = 1.0);
+
 // A textured sphere (a curved surface), visible from outside and inside. The
 // texture is a 3D solid texture evaluated at (point - center) in world axes.
 struct SyntheticSphere {
