@@ -40,6 +40,7 @@ set(AMHMVS_CORE_SOURCES
   src/io/colormap.cpp
   src/io/mvsnet_folder.cpp
   src/io/colmap_model.cpp
+  src/io/point_cloud_io.cpp
   src/mvs/patchmatch_options.cpp
   src/mvs/propagation_pattern.cpp
   src/mvs/depth_estimator.cpp

@@ -27,6 +27,17 @@ if [ -d "$data/mvsnet/fountain_x0.25/images" ] && command -v colmap >/dev/null; 
   export AMHMVS_COLMAP_WORKSPACE=$workspace
 fi
 
+if [ -d "$data/mvsnet/fountain_x0.25" ]; then
+  # Depth maps for the fusion test on real data (384x256, CPU, a few minutes).
+  fountain_depth=$build/fountain_depth_384
+  if [ ! -f "$fountain_depth/00000010/depth.pfm" ]; then
+    echo "== fountain depth maps at 384 px for the fusion test =="
+    "$build/devel/lib/amhmvs_mapping/amhmvs_depth" "$data/mvsnet/fountain_x0.25" "$fountain_depth" \
+      --max_image_size 384 --backend cpu --quiet
+  fi
+  export AMHMVS_FOUNTAIN_DEPTH_DIR=$fountain_depth
+fi
+
 echo "== unit, CLI and real-data tests =="
 results=$build/test_results/amhmvs_unit_tests.xml
 mkdir -p "$(dirname "$results")"
@@ -34,11 +45,83 @@ set +e
 "$build/devel/lib/amhmvs_mapping/amhmvs_unit_tests" --gtest_output=xml:"$results"
 status=$?
 set -e
-python3 - "$results" <<'PY'
-import sys, xml.etree.ElementTree as ET
-root = ET.parse(sys.argv[1]).getroot()
-total, failed = int(root.get("tests")), int(root.get("failures")) + int(root.get("errors"))
-skipped = sum(1 for case in root.iter("testcase") if case.find("skipped") is not None)
-print(f"{total - failed - skipped} passed, {failed} failed, {skipped} skipped")
+# ROS tests: the gtest of the nodelet's message conversions, then rostests,
+# each with its own roscore: the fountain bag through the nodelet loaded into
+# a manager (pose topic) and through the standalone node (tf), and bad input.
+echo "== ROS tests (message conversions; rostest) =="
+ros_results=$build/test_results/ros
+rm -rf "$ros_results"
+mkdir -p "$ros_results"
+ros_runs=("$ros_results/amhmvs_ros_unit_tests.xml")
+set +e
+"$build/devel/lib/amhmvs_mapping/amhmvs_ros_unit_tests" --gtest_output=xml:"$ros_results/amhmvs_ros_unit_tests.xml"
+[ $? -ne 0 ] && status=1
+set -e
+bag=$data/bags/strecha_fountain_x0.25.bag
+if [ -f "$bag" ]; then
+  set +u
+  source "$build/devel/setup.bash"
+  set -u
+  export ROS_PACKAGE_PATH=$here${ROS_PACKAGE_PATH:+:$ROS_PACKAGE_PATH}
+  export ROS_HOME=${ROS_HOME:-$build/ros_home}
+  # name, test file, launch arguments
+  for run in "fountain_manager_pose replay_fountain.test standalone:=false input_mode:=pose" \
+             "fountain_standalone_tf replay_fountain.test standalone:=true input_mode:=tf" \
+             "bad_input bad_input.test"; do
+    read -r name file args <<< "$run"
+    dir=$ros_results/$name
+    mkdir -p "$dir"
+    start=$(date +%s)
+    set +e
+    # shellcheck disable=SC2086
+    ROS_TEST_RESULTS_DIR=$dir rostest --results-base-dir "$dir" amhmvs_mapping "$file" $args > "$dir.log" 2>&1
+    rc=$?
+    set -e
+    echo "$name ($file $args): exit $rc in $(( $(date +%s) - start )) s (log: $dir.log)"
+    if [ $rc -ne 0 ]; then
+      tail -40 "$dir.log"
+      status=1
+    fi
+    ros_runs+=("$dir")
+  done
+else
+  echo "rostest: skipped, no bag at $bag"
+  ros_runs+=(skipped skipped skipped)
+fi
+
+python3 - "$results" "${ros_runs[@]}" <<'PY'
+import glob, os, sys, xml.etree.ElementTree as ET
+
+def gtest_counts(path):
+    if not os.path.exists(path):  # the test program crashed before writing
+        return 0, 1, 0
+    root = ET.parse(path).getroot()
+    total, failed = int(root.get("tests")), int(root.get("failures")) + int(root.get("errors"))
+    skipped = sum(1 for case in root.iter("testcase") if case.find("skipped") is not None)
+    return total - failed - skipped, failed, skipped
+
+def rostest_counts(directory):
+    # rosunit-*.xml: the test node's cases; rostest-*.xml: the launch as a whole
+    # (a crash or time-out of the test node shows only there).
+    if directory == "skipped":
+        return 0, 0, 1
+    passed = failed = 0
+    for path in glob.glob(os.path.join(directory, "**", "rosunit-*.xml"), recursive=True):
+        for case in ET.parse(path).getroot().iter("testcase"):
+            bad = case.find("failure") is not None or case.find("error") is not None
+            failed += bad
+            passed += not bad
+    wrapper_failed = 0
+    wrappers = glob.glob(os.path.join(directory, "**", "rostest-*.xml"), recursive=True)
+    for path in wrappers:
+        root = ET.parse(path).getroot()
+        wrapper_failed += int(root.get("failures", 0)) + int(root.get("errors", 0))
+    if not wrappers or (wrapper_failed and not failed) or passed + failed == 0:
+        failed += max(1, wrapper_failed)
+    return passed, failed, 0
+
+counts = [gtest_counts(a) if a.endswith(".xml") else rostest_counts(a) for a in sys.argv[1:]]
+passed, failed, skipped = (sum(c[i] for c in counts) for i in range(3))
+print(f"{passed} passed, {failed} failed, {skipped} skipped")
 PY
 exit $status

@@ -21,22 +21,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct CommandResult {
-  int exit_code;
-  std::string output;  // stdout and stderr
-};
+using test::CommandResult;
 
 CommandResult runDepth(const std::string& arguments) {
-  const std::string command = std::string(AMHMVS_DEPTH_BIN) + " " + arguments + " 2>&1";
-  CommandResult result{-1, ""};
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return result;
-  std::array<char, 4096> buffer;
-  size_t n;
-  while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
+  return test::runCommand(std::string(AMHMVS_DEPTH_BIN) + " " + arguments);
 }
 
 // A writable copy of the Piano two-view dense folder.

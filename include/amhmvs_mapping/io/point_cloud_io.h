@@ -1,0 +1,51 @@
+// Point clouds and their files: binary PLY (MeshLab, CloudCompare, Open3D,
+// PCL) and binary PCD (PCL), plus a PLY reader for our own and similar files.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace amhmvs {
+
+// Optional attributes are either empty or have one entry per point.
+struct PointCloud {
+  std::vector<Eigen::Vector3f> points;
+  std::vector<Eigen::Vector3f> normals;
+  std::vector<std::array<uint8_t, 3>> colors;  // RGB
+  std::vector<float> confidence;
+
+  size_t size() const { return points.size(); }
+  // Empty when consistent; otherwise which attribute has the wrong length or
+  // the first non-finite point.
+  std::string validate() const;
+};
+
+// Binary little-endian PLY, one "vertex" element: float x y z, then float
+// nx ny nz, uchar red green blue and float quality (the confidence) where the
+// cloud has them. Throws InputError for an inconsistent cloud, a non-finite
+// point, or a file that cannot be written.
+void writePly(const std::string& path, const PointCloud& cloud);
+
+// Binary PCD v0.7 (pcl::io::loadPCDFile): FIELDS x y z [rgb] [normal_x
+// normal_y normal_z], all 4-byte, rgb packed as PCL does (0x00RRGGBB in the
+// bytes of a float, TYPE F). Confidence is not stored. Throws as writePly.
+void writePcd(const std::string& path, const PointCloud& cloud);
+
+// Writes PLY or PCD according to the extension (.ply / .pcd, any case);
+// throws InputError for other extensions.
+void writePointCloud(const std::string& path, const PointCloud& cloud);
+
+// Reads the "vertex" element of an ASCII or binary_little_endian PLY: x y z
+// (required), nx ny nz, red green blue (uchar 0..255; float/double 0..1 are
+// scaled) and quality / confidence, where all of a group are present. Any
+// scalar property type is accepted; other elements are skipped (binary: only
+// when they have no list properties). Throws InputError naming the file and
+// the problem for other formats, missing x/y/z, list properties in the vertex
+// element, truncated data and non-finite coordinates.
+PointCloud readPly(const std::string& path);
+
+}  // namespace amhmvs

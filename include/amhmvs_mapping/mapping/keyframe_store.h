@@ -1,0 +1,165 @@
+// Bounded store of the keyframes that the online mapper keeps: their images,
+// cameras (intrinsics + pose, updatable at any time for loop closures),
+// optional depth ranges and sparse SLAM points, and their results (depth map,
+// dense points) once computed.
+//
+//   KeyframeStore store(options);
+//   std::vector<int64_t> evicted = store.add(std::move(keyframe));
+//   store.setSources(id, source_ids);         // while its depth is pending
+//   store.attachDepth(id, std::move(depth));  // marks it done
+//   store.updatePose(id, camera_to_world);    // loop closure
+//
+// Memory bound: at most options.max_keyframes keyframes and options.max_bytes
+// payload bytes (see StoredKeyframe::bytes). When an add or an attachment
+// would exceed a bound, keyframes are evicted in this order, each tier oldest
+// (earliest added) first, until it fits:
+//   1. done keyframes that are no source of a pending keyframe;
+//   2. done keyframes that are sources of pending keyframes (those keyframes
+//      lose a source and keep the others);
+//   3. pending keyframes (their depth is never computed).
+// The keyframe being added or given an attachment is never evicted; when it
+// alone exceeds max_bytes, the call throws InputError and nothing changes.
+// Every call that may evict returns the evicted ids (oldest first), so that
+// the caller can drop them elsewhere too.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "amhmvs_mapping/core/camera.h"
+#include "amhmvs_mapping/core/image.h"
+#include "amhmvs_mapping/mapping/voxel_map.h"
+#include "amhmvs_mapping/mvs/depth_estimator.h"
+
+namespace amhmvs {
+
+// Camera-to-world pose of a camera (PinholeCamera stores world-to-camera).
+Eigen::Isometry3d cameraToWorld(const PinholeCamera& camera);
+// Sets the camera's world-to-camera R, t from a camera-to-world pose.
+void setCameraToWorld(const Eigen::Isometry3d& camera_to_world, PinholeCamera* camera);
+
+struct Keyframe {
+  int64_t id = 0;
+  double stamp = 0;      // seconds; non-decreasing over the store's adds
+  ImageU8 image;         // grey (1 channel) or RGB (3), size of the camera
+  PinholeCamera camera;  // intrinsics and world-to-camera pose
+  // Optional z-depth range of the scene in this view (e.g. from the SLAM
+  // front end); used when both are > 0.
+  double depth_min = 0, depth_max = 0;
+  std::vector<Eigen::Vector3d> sparse_points;  // optional SLAM points, world frame
+
+  bool hasDepthRange() const { return depth_min > 0 && depth_max > 0; }
+  Eigen::Isometry3d cameraToWorld() const { return amhmvs::cameraToWorld(camera); }
+  void setCameraToWorld(const Eigen::Isometry3d& pose) { amhmvs::setCameraToWorld(pose, &camera); }
+
+  // Empty when the keyframe is usable: valid camera (positive focal, finite
+  // rigid pose), image of the camera's size with 1 or 3 channels, finite
+  // stamp, finite sparse points, depth range unset or 0 < min < max.
+  std::string validate() const;
+};
+
+enum class KeyframeState { kPending, kDone };
+const char* keyframeStateName(KeyframeState state);
+
+struct StoredKeyframe {
+  Keyframe keyframe;
+  KeyframeState state = KeyframeState::kPending;
+  std::vector<int64_t> sources;  // source keyframes chosen while pending
+  DepthMap depth;                // empty until attachDepth()
+  KeyframePoints points;         // dense points, camera frame; empty until attachPoints()
+  uint64_t pose_revision = 0;    // incremented by each updatePose()
+  // Payload bytes counted against the budget: image + depth map images
+  // (depth, normal, cost) + sparse points + dense points.
+  size_t bytes = 0;
+};
+
+struct KeyframeStoreOptions {
+  size_t max_keyframes = 500;
+  size_t max_bytes = size_t{2} << 30;  // 2 GiB
+
+  // Empty when valid; otherwise one line per problem.
+  std::string validate() const;
+};
+
+class KeyframeStore {
+ public:
+  // Throws InputError when the options are invalid.
+  explicit KeyframeStore(const KeyframeStoreOptions& options = KeyframeStoreOptions());
+
+  // Adds a pending keyframe. Throws InputError (store unchanged) for an
+  // invalid keyframe, a duplicate id, a stamp earlier than the last added
+  // one, or a keyframe larger than max_bytes alone. Returns evicted ids.
+  std::vector<int64_t> add(Keyframe keyframe);
+
+  // Records the sources chosen for a pending keyframe (protects them from
+  // eviction tier 1). Throws InputError for an unknown or done keyframe, or
+  // a source id that is unknown or the keyframe itself.
+  void setSources(int64_t id, const std::vector<int64_t>& source_ids);
+
+  // Attaches the keyframe's depth map and marks it done (its sources are
+  // released). The depth image must have the camera's size; normal (3
+  // channels) and cost, when present, too. Returns evicted ids.
+  std::vector<int64_t> attachDepth(int64_t id, DepthMap depth);
+  // Attaches the keyframe's dense points (camera frame). Returns evicted ids.
+  std::vector<int64_t> attachPoints(int64_t id, KeyframePoints points);
+
+  // Sets a new camera-to-world pose (pending or done keyframes). The sparse
+  // points move rigidly with it (they were observed from this keyframe);
+  // attachments are in the camera frame and stay valid. Throws InputError for
+  // an unknown id or a non-finite / non-rigid pose.
+  void updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world);
+
+  // Removes a keyframe; throws InputError for an unknown id.
+  void remove(int64_t id);
+
+  bool contains(int64_t id) const { return entries_.count(id) != 0; }
+  // Throw InputError for an unknown id.
+  const StoredKeyframe& entry(int64_t id) const;
+  const Keyframe& keyframe(int64_t id) const { return entry(id).keyframe; }
+  KeyframeState state(int64_t id) const { return entry(id).state; }
+
+  std::vector<int64_t> ids() const;         // oldest first
+  std::vector<int64_t> pendingIds() const;  // oldest first
+  size_t size() const { return entries_.size(); }
+  size_t bytes() const { return bytes_; }
+  size_t evictedCount() const { return evicted_count_; }
+  const KeyframeStoreOptions& options() const { return options_; }
+
+ private:
+  struct Entry {
+    uint64_t sequence = 0;
+    StoredKeyframe stored;
+  };
+  Entry& find(int64_t id, const char* action);
+  const Entry& find(int64_t id, const char* action) const;
+  // Evicts until `extra_keyframes` more keyframes and `extra_bytes` more
+  // bytes fit, sparing `keep_id`. Returns the evicted ids.
+  std::vector<int64_t> makeRoom(size_t extra_keyframes, size_t extra_bytes, int64_t keep_id);
+  void erase(int64_t id);
+  void releaseSources(StoredKeyframe* stored);
+
+  KeyframeStoreOptions options_;
+  std::unordered_map<int64_t, Entry> entries_;
+  std::map<uint64_t, int64_t> order_;             // sequence -> id, oldest first
+  std::unordered_map<int64_t, int> source_refs_;  // id -> pending keyframes using it
+  uint64_t next_sequence_ = 0;
+  bool has_stamp_ = false;
+  double last_stamp_ = 0;
+  size_t bytes_ = 0;
+  size_t evicted_count_ = 0;
+};
+
+// Payload bytes of an image.
+template <typename T>
+size_t imageBytes(const Image<T>& image) {
+  return image.data.size() * sizeof(T);
+}
+
+}  // namespace amhmvs

@@ -1,0 +1,158 @@
+// The global map: a voxel-hashed point cloud built from per-keyframe dense
+// points, updated incrementally when keyframes are added, removed or re-posed.
+//
+//   VoxelMap map(options);
+//   map.addKeyframe(id, camera_to_world, points);  // points in the camera frame
+//   map.updatePose(id, new_camera_to_world);       // loop closure
+//   MapCloud cloud = map.exportCloud();            // one point per voxel, world
+//
+// Each voxel keeps double sums of its points (position relative to the voxel
+// centre, normal, colour, confidence) and a count, so removing a keyframe
+// subtracts exactly what it added; a voxel whose count drops to zero is erased
+// (its sums restart from exact zeros). Each keyframe's accepted points and
+// the voxel each went to are kept, so re-posing = remove with the old pose +
+// add with the new one.
+//
+// Memory bound (VoxelMapOptions::max_voxels, max_points, max_keyframes):
+// before a keyframe is added, the contributions of the oldest keyframes (in
+// order of addition; never the one being added) are removed until its points
+// fit. A keyframe that alone exceeds the budget keeps its points in order up
+// to the budget; the rest are dropped and counted. Invalid points (NaN/inf
+// position, normal or confidence, negative confidence, or beyond the voxel
+// index range of +-2^20 leaves from the origin) are skipped and counted,
+// never stored.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace amhmvs {
+
+// One dense point of a keyframe, in that keyframe's camera frame.
+// (Minimal local definition; the fusion module may provide its own.)
+struct KeyframePoint {
+  Eigen::Vector3f position = Eigen::Vector3f::Zero();
+  Eigen::Vector3f normal = Eigen::Vector3f::Zero();  // unit, or zero when unknown
+  uint8_t rgb[3] = {0, 0, 0};
+  float confidence = 1.0f;  // >= 0
+};
+using KeyframePoints = std::vector<KeyframePoint>;
+
+struct VoxelMapOptions {
+  double leaf_size = 0.02;        // voxel edge, metres
+  size_t max_voxels = 5000000;    // voxels in the map
+  size_t max_points = 20000000;   // keyframe points kept for re-posing
+  size_t max_keyframes = 100000;  // keyframes with a contribution
+
+  // Empty when valid; otherwise one line per problem.
+  std::string validate() const;
+};
+
+// The exported cloud, world frame, one entry per voxel (struct of arrays).
+struct MapCloud {
+  std::vector<Eigen::Vector3f> positions;            // mean of the voxel's points
+  std::vector<Eigen::Vector3f> normals;              // normalised mean; zero when they cancel out
+  std::vector<Eigen::Matrix<uint8_t, 3, 1>> colors;  // rounded mean RGB
+  std::vector<float> confidences;                    // mean confidence
+  std::vector<uint32_t> counts;                      // points merged into the voxel
+  size_t size() const { return positions.size(); }
+};
+
+// What one addKeyframe / updatePose did.
+struct VoxelMapUpdate {
+  size_t added_points = 0;
+  size_t skipped_invalid = 0;      // NaN/inf values, negative confidence, out of index range
+  size_t dropped_over_budget = 0;  // points that did not fit max_voxels / max_points
+  std::vector<int64_t> evicted_keyframes;  // contributions removed to make room, oldest first
+};
+
+class VoxelMap {
+ public:
+  // Throws InputError when the options are invalid.
+  explicit VoxelMap(const VoxelMapOptions& options = VoxelMapOptions());
+
+  // Adds keyframe `id`'s points (camera frame) at pose camera_to_world. An id
+  // already in the map is replaced (its old contribution removed first).
+  // Throws InputError for a non-finite or non-rigid pose.
+  VoxelMapUpdate addKeyframe(int64_t id, const Eigen::Isometry3d& camera_to_world,
+                             const KeyframePoints& points);
+  // Removes keyframe `id`'s contribution; throws InputError for an unknown id.
+  void removeKeyframe(int64_t id);
+  // Moves keyframe `id`'s points to a new pose. Throws InputError for an
+  // unknown id or a bad pose. Evicts older keyframes when the moved points
+  // need more voxels than are free.
+  VoxelMapUpdate updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world);
+
+  bool contains(int64_t id) const { return keyframes_.count(id) != 0; }
+  // Pose of a keyframe in the map; throws InputError for an unknown id.
+  const Eigen::Isometry3d& pose(int64_t id) const;
+  std::vector<int64_t> keyframeIds() const;  // order of addition, oldest first
+
+  MapCloud exportCloud() const;  // voxels in ascending key order (deterministic)
+  size_t voxelCount() const { return voxels_.size(); }
+  size_t keyframeCount() const { return keyframes_.size(); }
+  size_t storedPointCount() const { return stored_points_; }
+  // Approximate heap bytes held (voxels, keyframe points, keys).
+  size_t memoryBytes() const;
+
+  // Totals since construction.
+  size_t totalSkippedInvalid() const { return total_skipped_invalid_; }
+  size_t totalDroppedOverBudget() const { return total_dropped_over_budget_; }
+  size_t totalEvictedKeyframes() const { return total_evicted_keyframes_; }
+
+  const VoxelMapOptions& options() const { return options_; }
+
+ private:
+  struct Voxel {
+    double offset_sum[3] = {0, 0, 0};  // sum of (point - voxel centre)
+    double normal_sum[3] = {0, 0, 0};
+    double rgb_sum[3] = {0, 0, 0};
+    double confidence_sum = 0;
+    uint32_t count = 0;
+  };
+  struct KeyframeContribution {
+    uint64_t sequence = 0;  // order of addition, key of order_
+    Eigen::Isometry3d camera_to_world;
+    KeyframePoints points;       // accepted points, camera frame
+    std::vector<uint64_t> keys;  // voxel of each accepted point
+  };
+  struct PlacedPoint {
+    Eigen::Vector3d world;
+    Eigen::Vector3d normal;
+    uint64_t key;
+  };
+
+  // World position/normal and voxel key of a point; false when non-finite or
+  // out of index range.
+  bool place(const Eigen::Isometry3d& camera_to_world, const KeyframePoint& point,
+             PlacedPoint* placed) const;
+  void accumulate(const PlacedPoint& placed, const KeyframePoint& point, double sign);
+  void removeContribution(const KeyframeContribution& contribution);
+  // Adds a keyframe that is not in the map, evicting older ones as needed.
+  VoxelMapUpdate insert(int64_t id, uint64_t sequence, const Eigen::Isometry3d& camera_to_world,
+                        const KeyframePoints& points);
+  void evictOldest(VoxelMapUpdate* update);
+  Eigen::Vector3d voxelCentre(uint64_t key) const;
+
+  VoxelMapOptions options_;
+  std::unordered_map<uint64_t, Voxel> voxels_;
+  std::unordered_map<int64_t, KeyframeContribution> keyframes_;
+  std::map<uint64_t, int64_t> order_;  // sequence -> id, oldest first
+  uint64_t next_sequence_ = 0;
+  size_t stored_points_ = 0;
+  size_t total_skipped_invalid_ = 0;
+  size_t total_dropped_over_budget_ = 0;
+  size_t total_evicted_keyframes_ = 0;
+};
+
+// Empty when `camera_to_world` is a finite rigid transform; otherwise why not.
+std::string validateRigidPose(const Eigen::Isometry3d& camera_to_world);
+
+}  // namespace amhmvs

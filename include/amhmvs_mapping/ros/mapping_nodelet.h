@@ -1,0 +1,157 @@
+// amhmvs_mapping/MappingNodelet: online dense mapping of SLAM keyframes.
+//
+// Inputs (remappable, in the nodelet's namespace), by ~input_mode:
+//   pose:     image (image_transport) + camera_info + pose (PoseStamped,
+//             camera-to-world of the optical frame), approximate-time synced;
+//   tf:       image + camera_info, pose from tf2: fixed_frame <- image frame;
+//   keyframe: keyframe (amhmvs_mapping/Keyframe).
+// In pose and tf modes a frame becomes a keyframe when it moved at least
+// ~keyframe_min_translation or turned at least ~keyframe_min_rotation_deg
+// from the last keyframe.
+// Outputs: depth/image (REP-118 32FC1) + depth/camera_info, confidence/image,
+// depth/preview (bgr8), keyframe_cloud (PointCloud2), /diagnostics.
+// keyframe_poses (KeyframePoses): loop-closure pose updates of stored keyframes.
+// Services: ~reset, ~pause, ~resume (std_srvs/Trigger).
+//
+// onInit only wires up; depth estimation runs on a worker thread fed by a
+// bounded drop-oldest queue. Bad input (encoding, pose, camera_info, stamps)
+// is dropped, counted and reported with throttled errors.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <geometry_msgs/PoseStamped.h>
+#include <image_transport/image_transport.h>
+#include <image_transport/subscriber_filter.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/synchronizer.h>
+#include <nodelet/nodelet.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "amhmvs_mapping/Keyframe.h"
+#include "amhmvs_mapping/KeyframePoses.h"
+#include "amhmvs_mapping/core/camera.h"
+#include "amhmvs_mapping/core/image.h"
+#include "amhmvs_mapping/mvs/depth_estimator.h"
+#include "amhmvs_mapping/ros/mapping_config.h"
+
+namespace amhmvs_mapping {
+
+class MappingNodelet : public nodelet::Nodelet {
+ public:
+  MappingNodelet() = default;
+  ~MappingNodelet() override;
+
+ private:
+  // One keyframe waiting for the worker.
+  struct Frame {
+    int64_t id = 0;
+    ros::Time stamp;
+    std::string optical_frame;
+    sensor_msgs::ImageConstPtr image;
+    sensor_msgs::CameraInfoConstPtr info;
+    Eigen::Isometry3d camera_to_world = Eigen::Isometry3d::Identity();
+    double min_depth = 0, max_depth = 0;  // 0 = unknown
+  };
+  // A processed keyframe kept as a source view.
+  struct StoredView {
+    int64_t id = 0;
+    amhmvs::PinholeCamera camera;
+    amhmvs::ImageU8 gray;
+  };
+  using PoseSync = message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::CameraInfo,
+                                                                   geometry_msgs::PoseStamped>;
+  using CameraSync = message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::CameraInfo>;
+
+  void onInit() override;
+
+  // Input callbacks (subscriber threads).
+  void keyframeCallback(const amhmvs_mapping::KeyframeConstPtr& msg);
+  // Loop closure: new camera-to-world poses of stored keyframes.
+  void keyframePosesCallback(const amhmvs_mapping::KeyframePosesConstPtr& msg);
+  void poseCallback(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
+                    const geometry_msgs::PoseStampedConstPtr& pose);
+  void cameraCallback(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info);
+  // Checks a frame (stamp order, encoding, camera_info, pose), picks keyframes
+  // when `pick` and enqueues it.
+  void offer(Frame frame, const geometry_msgs::Pose& pose, bool pick);
+  void enqueue(Frame frame);
+  // Counts a dropped input and reports it (throttled per reason).
+  void drop(const std::string& reason, const std::string& detail);
+  void count(const std::string& what);
+
+  // Worker thread.
+  void workerLoop();
+  void process(const Frame& frame);
+  void applyPoseUpdates(std::map<int64_t, Eigen::Isometry3d> updates);
+  bool estimate(const amhmvs::DepthProblem& problem, amhmvs::DepthMap* map, int64_t id);
+
+  bool resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
+  bool pauseService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
+  bool resumeService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  MappingConfig config_;
+
+  // Wiring.
+  std::unique_ptr<image_transport::ImageTransport> it_;
+  ros::Subscriber keyframe_sub_, keyframe_poses_sub_;
+  std::unique_ptr<image_transport::SubscriberFilter> image_filter_;
+  std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>> info_filter_;
+  std::unique_ptr<message_filters::Subscriber<geometry_msgs::PoseStamped>> pose_filter_;
+  std::unique_ptr<message_filters::Synchronizer<PoseSync>> pose_sync_;
+  std::unique_ptr<message_filters::Synchronizer<CameraSync>> camera_sync_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  image_transport::CameraPublisher depth_pub_;
+  image_transport::Publisher confidence_pub_, preview_pub_;
+  ros::Publisher cloud_pub_;
+  ros::ServiceServer reset_srv_, pause_srv_, resume_srv_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diagnostics_timer_;
+
+  // Input state (subscriber threads), guarded by input_mutex_.
+  std::mutex input_mutex_;
+  ros::Time last_stamp_;
+  bool have_last_keyframe_ = false;
+  Eigen::Isometry3d last_keyframe_pose_ = Eigen::Isometry3d::Identity();
+  int64_t next_id_ = 0;
+
+  // Queue, guarded by queue_mutex_.
+  std::mutex queue_mutex_;
+  std::condition_variable queue_cv_;
+  std::deque<Frame> queue_;
+  std::map<int64_t, Eigen::Isometry3d> pose_updates_;  // keyframe id -> camera-to-world
+  bool stop_ = false;
+  std::atomic<bool> paused_{false};
+  std::atomic<bool> reset_requested_{false};
+  std::thread worker_;
+
+  // Counters (any thread), guarded by stats_mutex_.
+  std::mutex stats_mutex_;
+  std::map<std::string, uint64_t> drops_;    // reason -> count
+  std::map<std::string, uint64_t> counts_;   // event -> count
+  std::map<std::string, ros::WallTime> last_report_;
+  std::string backend_name_ = "not started";
+  double last_estimate_ms_ = 0;
+
+  // Worker state (worker thread only).
+  std::unique_ptr<amhmvs::DepthEstimator> estimator_, cpu_estimator_;
+  std::deque<StoredView> store_;
+};
+
+}  // namespace amhmvs_mapping

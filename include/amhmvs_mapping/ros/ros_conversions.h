@@ -1,0 +1,61 @@
+// Conversions between ROS messages and the ROS-free core (images, cameras,
+// poses) and the builders of the mapping nodelet's outputs.
+//
+// Functions that check input return an empty string on success and otherwise
+// a readable reason (the caller drops the input and reports the reason).
+#pragma once
+
+#include <string>
+
+#include <Eigen/Geometry>
+#include <geometry_msgs/Pose.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <std_msgs/Header.h>
+
+#include "amhmvs_mapping/core/camera.h"
+#include "amhmvs_mapping/core/image.h"
+#include "amhmvs_mapping/mvs/depth_estimator.h"
+
+namespace amhmvs_mapping {
+
+// Whether the encoding is one the nodelet reads (mono8, rgb8, bgr8).
+bool supportedEncoding(const std::string& encoding);
+
+// mono8 -> 1 channel; rgb8 and bgr8 -> 3 channels RGB. Checks encoding, size,
+// step and data length.
+std::string imageFromMsg(const sensor_msgs::Image& msg, amhmvs::ImageU8* image);
+
+// Camera-to-world pose; rejects non-finite values and quaternions whose norm
+// is not 1 (within 1e-3): a non-rigid pose.
+std::string poseFromMsg(const geometry_msgs::Pose& msg, Eigen::Isometry3d* camera_to_world);
+geometry_msgs::Pose poseToMsg(const Eigen::Isometry3d& camera_to_world);
+
+// Checks that the CameraInfo matches an image of width x height (its size,
+// K with positive finite focal lengths) and returns the pinhole camera with
+// the given pose. `distorted` (optional) tells whether D has a non-zero
+// coefficient (distortion is not corrected yet).
+std::string cameraFromMsg(const sensor_msgs::CameraInfo& info, int width, int height,
+                          const Eigen::Isometry3d& camera_to_world, amhmvs::PinholeCamera* camera,
+                          bool* distorted = nullptr);
+
+// Output builders. `header`: keyframe stamp and the optical frame.
+// REP-118: 32FC1, z-depth in metres, NaN where invalid.
+sensor_msgs::ImagePtr depthImageMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header);
+// CameraInfo of the (possibly downscaled) camera: K, P, no distortion.
+sensor_msgs::CameraInfoPtr cameraInfoMsg(const amhmvs::PinholeCamera& camera, const std_msgs::Header& header);
+// 32FC1 confidence in [0, 1]: 1 - cost / 2 where the depth is valid, else 0.
+sensor_msgs::ImagePtr confidenceImageMsg(const amhmvs::DepthMap& map, const std_msgs::Header& header);
+// bgr8 viridis colour map of the depth over its robust (2 %..98 %) range;
+// null when the depth has no finite pixel.
+sensor_msgs::ImagePtr depthPreviewMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header);
+// Point cloud in the optical frame with fields x y z rgb normal_x normal_y
+// normal_z: the valid depth pixels (finite, > 0, finite unit normal) whose
+// cost is <= max_cost, back-projected with `camera`'s intrinsics; colours
+// from `colour` (1 or 3 channels, size of the depth map). No NaN points.
+sensor_msgs::PointCloud2Ptr keyframeCloudMsg(const amhmvs::DepthMap& map, const amhmvs::PinholeCamera& camera,
+                                             const amhmvs::ImageU8& colour, double max_cost,
+                                             const std_msgs::Header& header);
+
+}  // namespace amhmvs_mapping

@@ -1,0 +1,256 @@
+#include "amhmvs_mapping/mapping/source_selection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mvs/patchmatch_options.h"
+
+namespace amhmvs {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+// Below this baseline (relative to the scene depth; about 0.06 deg of
+// triangulation angle) a pair is treated as pure rotation.
+constexpr double kMinRelativeBaseline = 1e-3;
+
+std::string fixed(double value, int digits) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(digits) << value;
+  return out.str();
+}
+
+// Compact number for messages: "1", "0.3", "12.5".
+std::string compact(double value) {
+  std::ostringstream out;
+  out << std::setprecision(4) << value;
+  return out.str();
+}
+
+double medianOf(std::vector<double> values) {
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  const double upper = values[mid];
+  if (values.size() % 2 == 1) return upper;
+  const double lower = *std::max_element(values.begin(), values.begin() + mid);
+  return 0.5 * (lower + upper);
+}
+
+double angleBetweenDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const double cosine = a.normalized().dot(b.normalized());
+  return std::acos(std::max(-1.0, std::min(1.0, cosine))) * kRadToDeg;
+}
+
+double preferenceScore(double angle_deg, const SourceSelectionOptions& options) {
+  const double sigma =
+      angle_deg <= options.preferred_angle_deg ? options.sigma_below_deg : options.sigma_above_deg;
+  const double diff = angle_deg - options.preferred_angle_deg;
+  return std::exp(-diff * diff / (2 * sigma * sigma));
+}
+
+SourceViewCandidate evaluate(const Keyframe& target, const std::vector<Eigen::Vector3d>& grid_world,
+                             double scene_depth, const Keyframe& candidate,
+                             const SourceSelectionOptions& options) {
+  SourceViewCandidate result;
+  result.id = candidate.id;
+  const std::string camera_problem = candidate.camera.validate();
+  if (!camera_problem.empty()) {
+    result.rejection = "invalid camera: " + camera_problem;
+    return result;
+  }
+  const Eigen::Vector3d target_centre = target.camera.center();
+  const Eigen::Vector3d candidate_centre = candidate.camera.center();
+  result.baseline_m = (candidate_centre - target_centre).norm();
+  result.axis_angle_deg =
+      angleBetweenDeg(target.camera.viewingDirection(), candidate.camera.viewingDirection());
+
+  std::vector<double> angles;
+  angles.reserve(grid_world.size());
+  for (const Eigen::Vector3d& point : grid_world) {
+    const Eigen::Vector3d in_candidate = candidate.camera.toCamera(point);
+    if (in_candidate.z() <= 0 ||
+        !candidate.camera.contains(candidate.camera.project(in_candidate))) {
+      continue;
+    }
+    angles.push_back(triangulationAngle(target_centre, candidate_centre, point) * kRadToDeg);
+  }
+  result.overlap = static_cast<double>(angles.size()) / grid_world.size();
+  // Without overlap, the angle at the middle of the grid still says something.
+  const Eigen::Vector3d& middle = grid_world[grid_world.size() / 2];
+  result.triangulation_angle_deg =
+      angles.empty() ? triangulationAngle(target_centre, candidate_centre, middle) * kRadToDeg
+                     : medianOf(angles);
+
+  if (result.baseline_m < kMinRelativeBaseline * scene_depth) {
+    result.rejection =
+        (result.axis_angle_deg < 0.01 ? "duplicate pose: baseline " : "pure rotation: baseline ") +
+        fixed(result.baseline_m, 3) + " m at scene depth " + fixed(scene_depth, 2) + " m";
+  } else if (result.axis_angle_deg > options.max_axis_angle_deg) {
+    result.rejection = "optical axes " + fixed(result.axis_angle_deg, 0) + " deg apart > " +
+                       compact(options.max_axis_angle_deg);
+  } else if (result.overlap < options.min_overlap) {
+    result.rejection = "overlap " + fixed(100 * result.overlap, 0) + " % < " +
+                       compact(100 * options.min_overlap) + " %";
+  } else if (result.triangulation_angle_deg < options.min_triangulation_angle_deg) {
+    result.rejection = "triangulation angle " + fixed(result.triangulation_angle_deg, 1) +
+                       " deg < " + compact(options.min_triangulation_angle_deg);
+  } else if (result.triangulation_angle_deg > options.max_triangulation_angle_deg) {
+    result.rejection = "triangulation angle " + fixed(result.triangulation_angle_deg, 1) +
+                       " deg > " + compact(options.max_triangulation_angle_deg);
+  } else {
+    result.score = result.overlap * preferenceScore(result.triangulation_angle_deg, options);
+  }
+  return result;
+}
+
+}  // namespace
+
+std::string SourceSelectionOptions::validate() const {
+  std::ostringstream why;
+  const auto finite = [](double v) { return std::isfinite(v); };
+  if (max_sources < 1 || max_sources > kMaxSourceViews) {
+    why << "max_sources must be in [1, " << kMaxSourceViews << "] (got " << max_sources << ")\n";
+  }
+  if (!(finite(min_triangulation_angle_deg) && finite(max_triangulation_angle_deg) &&
+        min_triangulation_angle_deg >= 0 &&
+        min_triangulation_angle_deg < max_triangulation_angle_deg &&
+        max_triangulation_angle_deg <= 180)) {
+    why << "triangulation angles must satisfy 0 <= min < max <= 180 (got "
+        << min_triangulation_angle_deg << ", " << max_triangulation_angle_deg << ")\n";
+  }
+  if (!(finite(max_axis_angle_deg) && max_axis_angle_deg > 0 && max_axis_angle_deg <= 180)) {
+    why << "max_axis_angle_deg must be in (0, 180] (got " << max_axis_angle_deg << ")\n";
+  }
+  if (!(finite(min_overlap) && min_overlap > 0 && min_overlap <= 1)) {
+    why << "min_overlap must be in (0, 1] (got " << min_overlap << ")\n";
+  }
+  if (!(finite(preferred_angle_deg) && preferred_angle_deg > 0)) {
+    why << "preferred_angle_deg must be positive (got " << preferred_angle_deg << ")\n";
+  }
+  if (!(finite(sigma_below_deg) && finite(sigma_above_deg) && sigma_below_deg > 0 &&
+        sigma_above_deg > 0)) {
+    why << "sigma_below_deg and sigma_above_deg must be positive\n";
+  }
+  if (overlap_grid < 2 || overlap_grid > 1000) {
+    why << "overlap_grid must be in [2, 1000] (got " << overlap_grid << ")\n";
+  }
+  if (min_sparse_points < 1) why << "min_sparse_points must be positive\n";
+  if (!(finite(default_scene_depth) && default_scene_depth > 0)) {
+    why << "default_scene_depth must be positive and finite (got " << default_scene_depth << ")\n";
+  }
+  return why.str();
+}
+
+SceneDepth sceneDepth(const Keyframe& keyframe, const SourceSelectionOptions& options) {
+  std::vector<double> depths;
+  for (const Eigen::Vector3d& world : keyframe.sparse_points) {
+    const Eigen::Vector3d point = keyframe.camera.toCamera(world);
+    if (point.allFinite() && point.z() > 0 &&
+        keyframe.camera.contains(keyframe.camera.project(point))) {
+      depths.push_back(point.z());
+    }
+  }
+  SceneDepth result;
+  if (static_cast<int>(depths.size()) >= options.min_sparse_points) {
+    result.depth = medianOf(depths);
+    result.source = "median of " + std::to_string(depths.size()) + " sparse points";
+  } else if (keyframe.hasDepthRange() && std::isfinite(keyframe.depth_min + keyframe.depth_max)) {
+    result.depth = 0.5 * (keyframe.depth_min + keyframe.depth_max);
+    result.source = "middle of the depth range";
+  } else {
+    result.depth = options.default_scene_depth;
+    result.source =
+        "default (" + std::to_string(depths.size()) + " sparse points in view, no depth range)";
+  }
+  if (!(std::isfinite(result.depth) && result.depth > 0)) {  // e.g. an absurd range
+    result.depth = options.default_scene_depth;
+    result.source = "default (no finite positive scene depth)";
+  }
+  return result;
+}
+
+SourceSelection selectSources(const Keyframe& target,
+                              const std::vector<const Keyframe*>& candidates,
+                              const SourceSelectionOptions& options) {
+  const std::string options_problem = options.validate();
+  if (!options_problem.empty()) throw InputError("source selection options: " + options_problem);
+  const std::string camera_problem = target.camera.validate();
+  if (!camera_problem.empty()) {
+    throw InputError("source selection: keyframe " + std::to_string(target.id) +
+                     ": camera: " + camera_problem);
+  }
+
+  SourceSelection selection;
+  selection.scene_depth = sceneDepth(target, options);
+  const double depth = selection.scene_depth.depth;
+
+  // Grid of target pixels at the scene depth, in the world frame.
+  const PinholeCamera& camera = target.camera;
+  std::vector<Eigen::Vector3d> grid_world;
+  const int n = options.overlap_grid;
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const double u = (i + 0.5) * camera.width / n - 0.5;
+      const double v = (j + 0.5) * camera.height / n - 0.5;
+      grid_world.push_back(camera.R.transpose() * (camera.backproject(u, v, depth) - camera.t));
+    }
+  }
+
+  std::vector<SourceViewCandidate> qualified, rejected;
+  for (const Keyframe* candidate : candidates) {
+    if (candidate == nullptr) {
+      throw InputError("source selection: keyframe " + std::to_string(target.id) +
+                       ": null candidate");
+    }
+    if (candidate->id == target.id) continue;
+    SourceViewCandidate evaluated = evaluate(target, grid_world, depth, *candidate, options);
+    (evaluated.rejection.empty() ? qualified : rejected).push_back(std::move(evaluated));
+  }
+  std::sort(qualified.begin(), qualified.end(),
+            [](const SourceViewCandidate& a, const SourceViewCandidate& b) {
+              return a.score != b.score ? a.score > b.score : a.id < b.id;
+            });
+  for (size_t rank = 0; rank < qualified.size(); ++rank) {
+    if (static_cast<int>(rank) < options.max_sources) {
+      selection.source_ids.push_back(qualified[rank].id);
+    } else {
+      qualified[rank].rejection = "rank " + std::to_string(rank + 1) + " of " +
+                                  std::to_string(qualified.size()) + ": only " +
+                                  std::to_string(options.max_sources) + " sources are kept";
+    }
+  }
+  std::sort(rejected.begin(), rejected.end(),
+            [](const SourceViewCandidate& a, const SourceViewCandidate& b) { return a.id < b.id; });
+  selection.candidates = std::move(qualified);
+  selection.candidates.insert(selection.candidates.end(), rejected.begin(), rejected.end());
+
+  if (selection.source_ids.empty()) {
+    std::ostringstream why;
+    if (selection.candidates.empty()) {
+      why << "keyframe " << target.id << ": no candidate keyframes to choose sources from";
+    } else {
+      why << "keyframe " << target.id << ": none of " << selection.candidates.size()
+          << " candidates qualifies (scene depth " << fixed(depth, 2) << " m, "
+          << selection.scene_depth.source << "):";
+      for (const SourceViewCandidate& c : selection.candidates) {
+        why << " keyframe " << c.id << ": " << c.rejection << ";";
+      }
+    }
+    selection.reason = why.str();
+  }
+  return selection;
+}
+
+SourceSelection selectSources(const KeyframeStore& store, int64_t target_id,
+                              const SourceSelectionOptions& options) {
+  const Keyframe& target = store.keyframe(target_id);
+  std::vector<const Keyframe*> candidates;
+  for (int64_t id : store.ids()) {
+    if (id != target_id) candidates.push_back(&store.keyframe(id));
+  }
+  return selectSources(target, candidates, options);
+}
+
+}  // namespace amhmvs

@@ -1,0 +1,291 @@
+#include "amhmvs_mapping/mapping/voxel_map.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <unordered_set>
+
+#include "amhmvs_mapping/core/error.h"
+
+namespace amhmvs {
+namespace {
+
+// Voxel indices are packed into 21 bits per axis: [-2^20, 2^20).
+constexpr int64_t kIndexBits = 21;
+constexpr int64_t kIndexOffset = int64_t{1} << (kIndexBits - 1);
+constexpr int64_t kIndexMask = (int64_t{1} << kIndexBits) - 1;
+
+bool indexInRange(double index) { return index >= -kIndexOffset && index < kIndexOffset; }
+
+uint64_t packKey(int64_t ix, int64_t iy, int64_t iz) {
+  return (static_cast<uint64_t>(ix + kIndexOffset) << (2 * kIndexBits)) |
+         (static_cast<uint64_t>(iy + kIndexOffset) << kIndexBits) |
+         static_cast<uint64_t>(iz + kIndexOffset);
+}
+
+Eigen::Vector3d unpackKey(uint64_t key) {
+  const auto axis = [key](int shift) {
+    return static_cast<double>(static_cast<int64_t>((key >> shift) & kIndexMask) - kIndexOffset);
+  };
+  return {axis(2 * kIndexBits), axis(kIndexBits), axis(0)};
+}
+
+uint8_t clampColor(double value) {
+  return static_cast<uint8_t>(std::lround(std::min(255.0, std::max(0.0, value))));
+}
+
+}  // namespace
+
+std::string VoxelMapOptions::validate() const {
+  std::ostringstream why;
+  if (!(std::isfinite(leaf_size) && leaf_size > 0)) {
+    why << "leaf_size must be positive and finite (got " << leaf_size << ")\n";
+  }
+  if (max_voxels == 0) why << "max_voxels must be positive\n";
+  if (max_points == 0) why << "max_points must be positive\n";
+  if (max_keyframes == 0) why << "max_keyframes must be positive\n";
+  return why.str();
+}
+
+std::string validateRigidPose(const Eigen::Isometry3d& camera_to_world) {
+  const Eigen::Matrix4d& m = camera_to_world.matrix();
+  if (!m.allFinite()) return "pose contains non-finite values";
+  const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
+  const double orthogonality = (r * r.transpose() - Eigen::Matrix3d::Identity()).norm();
+  const double det = r.determinant();
+  // Same tolerance as PinholeCamera::validate().
+  if (orthogonality > 1e-3 || std::abs(det - 1.0) > 1e-3) {
+    std::ostringstream why;
+    why << "pose rotation is not rigid (|R R^T - I| = " << orthogonality << ", det R = " << det
+        << ")";
+    return why.str();
+  }
+  if (m.row(3) != Eigen::RowVector4d(0, 0, 0, 1)) return "pose's last row is not (0 0 0 1)";
+  return "";
+}
+
+VoxelMap::VoxelMap(const VoxelMapOptions& options) : options_(options) {
+  const std::string why = options.validate();
+  if (!why.empty()) throw InputError("voxel map options: " + why);
+}
+
+Eigen::Vector3d VoxelMap::voxelCentre(uint64_t key) const {
+  return (unpackKey(key).array() + 0.5).matrix() * options_.leaf_size;
+}
+
+bool VoxelMap::place(const Eigen::Isometry3d& camera_to_world, const KeyframePoint& point,
+                     PlacedPoint* placed) const {
+  if (!point.position.allFinite() || !point.normal.allFinite() ||
+      !(std::isfinite(point.confidence) && point.confidence >= 0)) {
+    return false;
+  }
+  placed->world = camera_to_world * point.position.cast<double>();
+  placed->normal = camera_to_world.linear() * point.normal.cast<double>();
+  const Eigen::Vector3d index = (placed->world / options_.leaf_size).array().floor();
+  if (!placed->world.allFinite() || !indexInRange(index.x()) || !indexInRange(index.y()) ||
+      !indexInRange(index.z())) {
+    return false;
+  }
+  placed->key = packKey(static_cast<int64_t>(index.x()), static_cast<int64_t>(index.y()),
+                        static_cast<int64_t>(index.z()));
+  return true;
+}
+
+void VoxelMap::accumulate(const PlacedPoint& placed, const KeyframePoint& point, double sign) {
+  Voxel& voxel = voxels_[placed.key];
+  const Eigen::Vector3d offset = placed.world - voxelCentre(placed.key);
+  for (int i = 0; i < 3; ++i) {
+    voxel.offset_sum[i] += sign * offset[i];
+    voxel.normal_sum[i] += sign * placed.normal[i];
+    voxel.rgb_sum[i] += sign * point.rgb[i];
+  }
+  voxel.confidence_sum += sign * point.confidence;
+  if (sign > 0) {
+    ++voxel.count;
+  } else if (--voxel.count == 0) {
+    voxels_.erase(placed.key);  // restart from exact zeros next time
+  }
+}
+
+void VoxelMap::removeContribution(const KeyframeContribution& contribution) {
+  PlacedPoint placed;
+  for (size_t i = 0; i < contribution.points.size(); ++i) {
+    // Recomputed exactly as when added; the stored key guards against any
+    // difference in rounding (the sums are subtracted from the same voxel).
+    place(contribution.camera_to_world, contribution.points[i], &placed);
+    placed.key = contribution.keys[i];
+    accumulate(placed, contribution.points[i], -1.0);
+  }
+}
+
+void VoxelMap::evictOldest(VoxelMapUpdate* update) {
+  const auto oldest = order_.begin();
+  const int64_t id = oldest->second;
+  const auto it = keyframes_.find(id);
+  removeContribution(it->second);
+  stored_points_ -= it->second.points.size();
+  keyframes_.erase(it);
+  order_.erase(oldest);
+  update->evicted_keyframes.push_back(id);
+  ++total_evicted_keyframes_;
+}
+
+VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
+                                const Eigen::Isometry3d& camera_to_world,
+                                const KeyframePoints& points) {
+  VoxelMapUpdate update;
+  KeyframeContribution contribution;
+  contribution.sequence = sequence;
+  contribution.camera_to_world = camera_to_world;
+  std::vector<PlacedPoint> placed;
+  placed.reserve(points.size());
+  for (const KeyframePoint& point : points) {
+    PlacedPoint p;
+    if (!place(camera_to_world, point, &p)) {
+      ++update.skipped_invalid;
+      continue;
+    }
+    if (placed.size() >= options_.max_points) {
+      ++update.dropped_over_budget;
+      continue;
+    }
+    placed.push_back(p);
+    contribution.points.push_back(point);
+  }
+
+  // Make room: oldest keyframes first, until the points, the keyframe and its
+  // new voxels fit.
+  const auto newVoxelsNeeded = [&]() {
+    std::unordered_set<uint64_t> fresh;
+    for (const PlacedPoint& p : placed) {
+      if (voxels_.count(p.key) == 0) fresh.insert(p.key);
+    }
+    return fresh.size();
+  };
+  while (!order_.empty() && (stored_points_ + placed.size() > options_.max_points ||
+                             keyframes_.size() + 1 > options_.max_keyframes)) {
+    evictOldest(&update);
+  }
+  while (!order_.empty() && voxels_.size() + newVoxelsNeeded() > options_.max_voxels) {
+    evictOldest(&update);
+  }
+
+  // Accumulate; alone over the voxel budget, points needing a new voxel
+  // beyond it are dropped.
+  KeyframeContribution kept;
+  kept.sequence = sequence;
+  kept.camera_to_world = camera_to_world;
+  kept.points.reserve(placed.size());
+  kept.keys.reserve(placed.size());
+  for (size_t i = 0; i < placed.size(); ++i) {
+    if (voxels_.size() >= options_.max_voxels && voxels_.count(placed[i].key) == 0) {
+      ++update.dropped_over_budget;
+      continue;
+    }
+    accumulate(placed[i], contribution.points[i], 1.0);
+    kept.points.push_back(contribution.points[i]);
+    kept.keys.push_back(placed[i].key);
+  }
+  update.added_points = kept.points.size();
+  stored_points_ += kept.points.size();
+  keyframes_[id] = std::move(kept);
+  order_[sequence] = id;
+  total_skipped_invalid_ += update.skipped_invalid;
+  total_dropped_over_budget_ += update.dropped_over_budget;
+  return update;
+}
+
+VoxelMapUpdate VoxelMap::addKeyframe(int64_t id, const Eigen::Isometry3d& camera_to_world,
+                                     const KeyframePoints& points) {
+  const std::string why = validateRigidPose(camera_to_world);
+  if (!why.empty()) throw InputError("voxel map: keyframe " + std::to_string(id) + ": " + why);
+  if (contains(id)) removeKeyframe(id);
+  return insert(id, next_sequence_++, camera_to_world, points);
+}
+
+void VoxelMap::removeKeyframe(int64_t id) {
+  const auto it = keyframes_.find(id);
+  if (it == keyframes_.end()) {
+    throw InputError("voxel map: keyframe " + std::to_string(id) + " is not in the map");
+  }
+  removeContribution(it->second);
+  stored_points_ -= it->second.points.size();
+  order_.erase(it->second.sequence);
+  keyframes_.erase(it);
+}
+
+VoxelMapUpdate VoxelMap::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world) {
+  const auto it = keyframes_.find(id);
+  if (it == keyframes_.end()) {
+    throw InputError("voxel map: cannot update the pose of keyframe " + std::to_string(id) +
+                     ": it is not in the map");
+  }
+  const std::string why = validateRigidPose(camera_to_world);
+  if (!why.empty()) throw InputError("voxel map: keyframe " + std::to_string(id) + ": " + why);
+  // Keep the keyframe's place in the eviction order.
+  const uint64_t sequence = it->second.sequence;
+  const KeyframePoints points = it->second.points;
+  removeKeyframe(id);
+  return insert(id, sequence, camera_to_world, points);
+}
+
+const Eigen::Isometry3d& VoxelMap::pose(int64_t id) const {
+  const auto it = keyframes_.find(id);
+  if (it == keyframes_.end()) {
+    throw InputError("voxel map: keyframe " + std::to_string(id) + " is not in the map");
+  }
+  return it->second.camera_to_world;
+}
+
+std::vector<int64_t> VoxelMap::keyframeIds() const {
+  std::vector<int64_t> ids;
+  ids.reserve(order_.size());
+  for (const auto& entry : order_) ids.push_back(entry.second);
+  return ids;
+}
+
+size_t VoxelMap::memoryBytes() const {
+  // Hash nodes carry the key, the value and about two pointers of overhead.
+  const size_t voxel_bytes = voxels_.size() * (sizeof(Voxel) + sizeof(uint64_t) + 16) +
+                             voxels_.bucket_count() * sizeof(void*);
+  const size_t point_bytes = stored_points_ * (sizeof(KeyframePoint) + sizeof(uint64_t));
+  const size_t keyframe_bytes = keyframes_.size() * (sizeof(KeyframeContribution) + 64);
+  return voxel_bytes + point_bytes + keyframe_bytes;
+}
+
+MapCloud VoxelMap::exportCloud() const {
+  std::vector<uint64_t> keys;
+  keys.reserve(voxels_.size());
+  for (const auto& entry : voxels_) keys.push_back(entry.first);
+  std::sort(keys.begin(), keys.end());
+
+  MapCloud cloud;
+  cloud.positions.reserve(keys.size());
+  cloud.normals.reserve(keys.size());
+  cloud.colors.reserve(keys.size());
+  cloud.confidences.reserve(keys.size());
+  cloud.counts.reserve(keys.size());
+  for (uint64_t key : keys) {
+    const Voxel& voxel = voxels_.at(key);
+    const double n = voxel.count;
+    const Eigen::Vector3d offset(voxel.offset_sum[0], voxel.offset_sum[1], voxel.offset_sum[2]);
+    Eigen::Vector3d position = voxelCentre(key) + offset / n;
+    Eigen::Vector3d normal(voxel.normal_sum[0], voxel.normal_sum[1], voxel.normal_sum[2]);
+    const double normal_length = normal.norm();
+    // Opposing normals that cancel give no direction: report zero, not NaN.
+    normal = normal_length > 1e-6 * n ? Eigen::Vector3d(normal / normal_length)
+                                      : Eigen::Vector3d::Zero();
+    const Eigen::Vector3f position_f = position.cast<float>();
+    if (!position_f.allFinite()) continue;  // cannot happen for finite input; never emit it
+    cloud.positions.push_back(position_f);
+    cloud.normals.push_back(normal.cast<float>());
+    cloud.colors.emplace_back(clampColor(voxel.rgb_sum[0] / n), clampColor(voxel.rgb_sum[1] / n),
+                              clampColor(voxel.rgb_sum[2] / n));
+    const double confidence = voxel.confidence_sum / n;
+    cloud.confidences.push_back(std::isfinite(confidence) ? static_cast<float>(confidence) : 0.f);
+    cloud.counts.push_back(voxel.count);
+  }
+  return cloud;
+}
+
+}  // namespace amhmvs

@@ -1,0 +1,518 @@
+#include "amhmvs_mapping/ros/mapping_nodelet.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <pluginlib/class_list_macros.hpp>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2/exceptions.h>
+
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/ros/ros_conversions.h"
+#include "amhmvs_mapping/ros/source_views.h"
+
+namespace amhmvs_mapping {
+
+namespace {
+constexpr double kReportPeriod = 5.0;  // seconds between reports of one drop reason
+}
+
+MappingNodelet::~MappingNodelet() {
+  // Inputs first, so that no callback feeds a stopping worker.
+  pose_sync_.reset();
+  camera_sync_.reset();
+  image_filter_.reset();
+  info_filter_.reset();
+  pose_filter_.reset();
+  keyframe_sub_.shutdown();
+  keyframe_poses_sub_.shutdown();
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    stop_ = true;
+  }
+  queue_cv_.notify_all();
+  if (worker_.joinable()) worker_.join();
+}
+
+void MappingNodelet::onInit() {
+  ros::NodeHandle& nh = getNodeHandle();
+  ros::NodeHandle& pnh = getPrivateNodeHandle();
+
+  std::string errors;
+  config_ = loadMappingConfig(pnh, &errors);
+  if (!errors.empty()) NODELET_ERROR("invalid parameters, defaults used instead:\n%s", errors.c_str());
+
+  // Outputs.
+  it_.reset(new image_transport::ImageTransport(nh));
+  depth_pub_ = it_->advertiseCamera("depth/image", 5);
+  confidence_pub_ = it_->advertise("confidence/image", 5);
+  preview_pub_ = it_->advertise("depth/preview", 5);
+  cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("keyframe_cloud", 5);
+
+  // Services.
+  reset_srv_ = pnh.advertiseService("reset", &MappingNodelet::resetService, this);
+  pause_srv_ = pnh.advertiseService("pause", &MappingNodelet::pauseService, this);
+  resume_srv_ = pnh.advertiseService("resume", &MappingNodelet::resumeService, this);
+
+  // Diagnostics.
+  diagnostics_.reset(new diagnostic_updater::Updater(nh, pnh, getName()));
+  diagnostics_->setHardwareID("amhmvs_mapping");
+  diagnostics_->add("depth estimation", this, &MappingNodelet::diagnose);
+  // Wall timer: simulated time stops when a bag ends, the worker may not.
+  diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(config_.diagnostics_period),
+                                          [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+
+  // Worker (creates the estimator: choosing the backend may take a while).
+  worker_ = std::thread(&MappingNodelet::workerLoop, this);
+
+  // Inputs.
+  keyframe_poses_sub_ = nh.subscribe("keyframe_poses", 10, &MappingNodelet::keyframePosesCallback, this);
+  if (config_.input_mode == "keyframe") {
+    keyframe_sub_ = nh.subscribe("keyframe", 10, &MappingNodelet::keyframeCallback, this);
+  } else {
+    const uint32_t q = config_.sync_queue_size;
+    image_filter_.reset(new image_transport::SubscriberFilter(
+        *it_, "image", q, image_transport::TransportHints("raw", ros::TransportHints(), pnh)));
+    info_filter_.reset(new message_filters::Subscriber<sensor_msgs::CameraInfo>(nh, "camera_info", q));
+    if (config_.input_mode == "pose") {
+      pose_filter_.reset(new message_filters::Subscriber<geometry_msgs::PoseStamped>(nh, "pose", q));
+      PoseSync policy(q);
+      policy.setMaxIntervalDuration(ros::Duration(config_.sync_max_interval));
+      pose_sync_.reset(new message_filters::Synchronizer<PoseSync>(static_cast<const PoseSync&>(policy), *image_filter_, *info_filter_, *pose_filter_));
+      pose_sync_->registerCallback(&MappingNodelet::poseCallback, this);
+    } else {
+      tf_buffer_.reset(new tf2_ros::Buffer());
+      tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_, nh));
+      CameraSync policy(q);
+      policy.setMaxIntervalDuration(ros::Duration(config_.sync_max_interval));
+      camera_sync_.reset(new message_filters::Synchronizer<CameraSync>(static_cast<const CameraSync&>(policy), *image_filter_, *info_filter_));
+      camera_sync_->registerCallback(&MappingNodelet::cameraCallback, this);
+    }
+  }
+  NODELET_INFO("amhmvs mapping: input mode %s, queue %d, %d sources, depth %.2f..%.2f m, max image size %d",
+               config_.input_mode.c_str(), config_.queue_size, config_.sources.num_sources, config_.min_depth,
+               config_.max_depth, config_.max_image_size);
+}
+
+// ---------------------------------------------------------------- inputs ---
+
+void MappingNodelet::keyframeCallback(const amhmvs_mapping::KeyframeConstPtr& msg) {
+  Frame frame;
+  frame.id = msg->keyframe_id;
+  frame.stamp = msg->header.stamp;
+  frame.optical_frame = !msg->image.header.frame_id.empty() ? msg->image.header.frame_id
+                                                            : msg->camera_info.header.frame_id;
+  // Aliasing pointers: share ownership of the keyframe message, no copy.
+  frame.image = sensor_msgs::ImageConstPtr(msg, &msg->image);
+  frame.info = sensor_msgs::CameraInfoConstPtr(msg, &msg->camera_info);
+  frame.min_depth = msg->min_depth;
+  frame.max_depth = msg->max_depth;
+  offer(std::move(frame), msg->camera_to_world, false);
+}
+
+void MappingNodelet::keyframePosesCallback(const amhmvs_mapping::KeyframePosesConstPtr& msg) {
+  std::map<int64_t, Eigen::Isometry3d> updates;
+  for (const amhmvs_mapping::KeyframePose& entry : msg->poses) {
+    Eigen::Isometry3d pose;
+    const std::string problem = poseFromMsg(entry.camera_to_world, &pose);
+    if (!problem.empty()) {
+      drop("bad_pose_update", "keyframe " + std::to_string(entry.keyframe_id) + ": " + problem);
+      continue;
+    }
+    updates[entry.keyframe_id] = pose;
+  }
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    for (const auto& update : updates) pose_updates_[update.first] = update.second;
+  }
+  queue_cv_.notify_one();
+}
+
+void MappingNodelet::poseCallback(const sensor_msgs::ImageConstPtr& image,
+                                  const sensor_msgs::CameraInfoConstPtr& info,
+                                  const geometry_msgs::PoseStampedConstPtr& pose) {
+  if (!pose->header.frame_id.empty() && pose->header.frame_id != config_.fixed_frame) {
+    NODELET_WARN_ONCE("pose frame '%s' is not ~fixed_frame '%s': the poses are used as they are",
+                      pose->header.frame_id.c_str(), config_.fixed_frame.c_str());
+  }
+  Frame frame;
+  frame.stamp = image->header.stamp;
+  frame.optical_frame = image->header.frame_id;
+  frame.image = image;
+  frame.info = info;
+  offer(std::move(frame), pose->pose, true);
+}
+
+void MappingNodelet::cameraCallback(const sensor_msgs::ImageConstPtr& image,
+                                    const sensor_msgs::CameraInfoConstPtr& info) {
+  // Polls with a wall-clock timeout: tf2's own timeout runs on ROS time,
+  // which stands still when a replayed bag ends (the callback would hang).
+  const std::string& source = image->header.frame_id;
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(config_.tf_timeout);
+  std::string error;
+  while (!tf_buffer_->canTransform(config_.fixed_frame, source, image->header.stamp, &error)) {
+    if (ros::WallTime::now() >= deadline || !ros::ok()) {
+      drop("missing_tf", "no transform " + config_.fixed_frame + " <- " + source + " within " +
+                             std::to_string(config_.tf_timeout) + " s: " + error);
+      return;
+    }
+    error.clear();
+    ros::WallDuration(0.005).sleep();
+  }
+  geometry_msgs::TransformStamped transform;
+  try {
+    transform = tf_buffer_->lookupTransform(config_.fixed_frame, source, image->header.stamp);
+  } catch (const tf2::TransformException& e) {
+    drop("missing_tf", e.what());
+    return;
+  }
+  geometry_msgs::Pose pose;
+  pose.position.x = transform.transform.translation.x;
+  pose.position.y = transform.transform.translation.y;
+  pose.position.z = transform.transform.translation.z;
+  pose.orientation = transform.transform.rotation;
+  Frame frame;
+  frame.stamp = image->header.stamp;
+  frame.optical_frame = image->header.frame_id;
+  frame.image = image;
+  frame.info = info;
+  offer(std::move(frame), pose, true);
+}
+
+void MappingNodelet::offer(Frame frame, const geometry_msgs::Pose& pose, bool pick) {
+  if (paused_) {
+    count("ignored_while_paused");
+    return;
+  }
+  if (!supportedEncoding(frame.image->encoding)) {
+    drop("encoding", "image encoding '" + frame.image->encoding + "' is not mono8, rgb8 or bgr8");
+    return;
+  }
+  std::string problem = poseFromMsg(pose, &frame.camera_to_world);
+  if (!problem.empty()) {
+    drop("bad_pose", problem);
+    return;
+  }
+  amhmvs::PinholeCamera camera;
+  problem = cameraFromMsg(*frame.info, frame.image->width, frame.image->height, frame.camera_to_world, &camera);
+  if (!problem.empty()) {
+    drop("bad_camera_info", problem);
+    return;
+  }
+  std::lock_guard<std::mutex> lock(input_mutex_);
+  if (!last_stamp_.isZero() && frame.stamp < last_stamp_) {
+    std::ostringstream out;
+    out << "stamp " << frame.stamp << " is before the previous input's " << last_stamp_
+        << " (call ~reset after a time jump)";
+    drop("stamp_backwards", out.str());
+    return;
+  }
+  last_stamp_ = frame.stamp;
+  if (pick) {
+    if (have_last_keyframe_) {
+      const double moved = (frame.camera_to_world.translation() - last_keyframe_pose_.translation()).norm();
+      const double turned = Eigen::AngleAxisd(last_keyframe_pose_.linear().transpose() *
+                                              frame.camera_to_world.linear()).angle() * 180.0 / M_PI;
+      if (moved < config_.keyframe_min_translation && turned < config_.keyframe_min_rotation_deg) {
+        count("frames_not_keyframes");
+        return;
+      }
+    }
+    frame.id = next_id_++;
+  }
+  have_last_keyframe_ = true;
+  last_keyframe_pose_ = frame.camera_to_world;
+  count("keyframes_received");
+  enqueue(std::move(frame));
+}
+
+void MappingNodelet::enqueue(Frame frame) {
+  size_t dropped = 0;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (stop_) return;
+    while (queue_.size() >= static_cast<size_t>(config_.queue_size)) {
+      queue_.pop_front();
+      ++dropped;
+    }
+    queue_.push_back(std::move(frame));
+  }
+  queue_cv_.notify_one();
+  if (dropped > 0) {
+    uint64_t total;
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      total = drops_["queue_full"] += dropped;
+    }
+    NODELET_WARN_THROTTLE(kReportPeriod,
+                          "input queue full (%d keyframes): dropped the oldest; %lu dropped so far "
+                          "(estimation is slower than the keyframe rate)",
+                          config_.queue_size, static_cast<unsigned long>(total));
+  }
+}
+
+void MappingNodelet::drop(const std::string& reason, const std::string& detail) {
+  uint64_t total;
+  bool report;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    total = ++drops_[reason];
+    const ros::WallTime now = ros::WallTime::now();
+    ros::WallTime& last = last_report_[reason];
+    report = last.isZero() || (now - last).toSec() >= kReportPeriod;
+    if (report) last = now;
+  }
+  if (report)
+    NODELET_ERROR("dropped input (%s): %s [%lu dropped for this reason]", reason.c_str(), detail.c_str(),
+                  static_cast<unsigned long>(total));
+}
+
+void MappingNodelet::count(const std::string& what) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  ++counts_[what];
+}
+
+// ---------------------------------------------------------------- worker ---
+
+void MappingNodelet::workerLoop() {
+  amhmvs::Backend backend = amhmvs::parseBackend(config_.backend);
+  if (backend == amhmvs::Backend::kAuto) {
+    std::string description;
+    if (amhmvs::cudaBackendAvailable(&description)) {
+      backend = amhmvs::Backend::kCuda;
+    } else {
+      NODELET_WARN("CUDA backend not usable (%s): depth estimation runs on the CPU backend, which is slow; "
+                   "set ~max_image_size (e.g. 256..512) for online rates",
+                   description.c_str());
+      backend = amhmvs::Backend::kCpu;
+    }
+  }
+  try {
+    estimator_.reset(new amhmvs::DepthEstimator(config_.estimator, backend));
+  } catch (const std::exception& e) {
+    NODELET_ERROR("backend %s failed (%s): using the CPU backend", amhmvs::backendName(backend), e.what());
+    estimator_.reset(new amhmvs::DepthEstimator(config_.estimator, amhmvs::Backend::kCpu));
+  }
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    backend_name_ = amhmvs::backendName(estimator_->backend());
+  }
+  NODELET_INFO("depth estimation backend: %s", amhmvs::backendName(estimator_->backend()));
+
+  std::map<int64_t, Eigen::Isometry3d> updates;
+  while (true) {
+    Frame frame;
+    bool have_frame = false;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      queue_cv_.wait(lock, [this] { return stop_ || !queue_.empty() || !pose_updates_.empty(); });
+      if (stop_) break;
+      updates.swap(pose_updates_);
+      if (!queue_.empty()) {
+        frame = std::move(queue_.front());
+        queue_.pop_front();
+        have_frame = true;
+      }
+    }
+    if (reset_requested_.exchange(false)) store_.clear();
+    if (!updates.empty()) applyPoseUpdates(std::move(updates));
+    updates.clear();
+    if (!have_frame) continue;
+    try {
+      process(frame);
+    } catch (const std::exception& e) {
+      drop("processing_error", "keyframe " + std::to_string(frame.id) + ": " + e.what());
+    }
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    counts_["stored_keyframes"] = store_.size();
+  }
+}
+
+void MappingNodelet::process(const Frame& frame) {
+  amhmvs::ImageU8 image;
+  std::string problem = imageFromMsg(*frame.image, &image);
+  if (!problem.empty()) {
+    drop("bad_image", problem);
+    return;
+  }
+  amhmvs::PinholeCamera camera;
+  bool distorted = false;
+  problem = cameraFromMsg(*frame.info, image.width, image.height, frame.camera_to_world, &camera, &distorted);
+  if (!problem.empty()) {
+    drop("bad_camera_info", problem);
+    return;
+  }
+  if (distorted)
+    NODELET_WARN_ONCE("camera_info has non-zero distortion coefficients: images are used without undistortion");
+  if (config_.max_image_size > 0 && std::max(image.width, image.height) > config_.max_image_size) {
+    const double scale = static_cast<double>(config_.max_image_size) / std::max(image.width, image.height);
+    const int width = std::max(1, static_cast<int>(std::lround(image.width * scale)));
+    const int height = std::max(1, static_cast<int>(std::lround(image.height * scale)));
+    image = amhmvs::resizeArea(image, width, height);
+    camera = camera.resized(width, height);
+  }
+  StoredView view;
+  view.id = frame.id;
+  view.camera = camera;
+  view.gray = amhmvs::toGray(image);
+  auto store = [&] {
+    store_.push_back(std::move(view));
+    while (store_.size() > static_cast<size_t>(config_.max_keyframes)) store_.pop_front();
+  };
+
+  std::vector<const amhmvs::PinholeCamera*> stored;
+  for (const StoredView& v : store_) stored.push_back(&v.camera);
+  const std::vector<size_t> sources = chooseSourceViews(camera, stored, config_.sources);
+  if (sources.empty()) {
+    count("keyframes_without_sources");
+    NODELET_INFO("keyframe %ld: no source view (%zu stored, none within the baseline and angle limits): "
+                 "stored as a source, no depth published",
+                 static_cast<long>(frame.id), store_.size());
+    store();
+    return;
+  }
+
+  amhmvs::DepthProblem depth_problem;
+  depth_problem.reference_camera = camera;
+  depth_problem.reference_image = view.gray;
+  for (size_t k : sources) {
+    depth_problem.source_cameras.push_back(store_[k].camera);
+    depth_problem.source_images.push_back(store_[k].gray);
+  }
+  const bool msg_range = frame.min_depth > 0 && frame.max_depth > frame.min_depth && std::isfinite(frame.max_depth);
+  depth_problem.depth_min = msg_range ? frame.min_depth : config_.min_depth;
+  depth_problem.depth_max = msg_range ? frame.max_depth : config_.max_depth;
+
+  amhmvs::DepthMap map;
+  const bool ok = estimate(depth_problem, &map, frame.id);
+  store();
+  if (!ok) return;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++counts_["depth_maps"];
+    last_estimate_ms_ = map.milliseconds;
+  }
+  NODELET_DEBUG("keyframe %ld: depth from %zu sources in %.0f ms (%s)", static_cast<long>(frame.id), sources.size(),
+                map.milliseconds, amhmvs::backendName(map.backend));
+
+  std_msgs::Header header;
+  header.stamp = frame.stamp;
+  header.frame_id = frame.optical_frame;
+  // Expensive outputs only for subscribers.
+  if (depth_pub_.getNumSubscribers() > 0)
+    depth_pub_.publish(depthImageMsg(map.depth, header), cameraInfoMsg(camera, header));
+  if (confidence_pub_.getNumSubscribers() > 0) confidence_pub_.publish(confidenceImageMsg(map, header));
+  if (preview_pub_.getNumSubscribers() > 0) {
+    sensor_msgs::ImagePtr preview = depthPreviewMsg(map.depth, header);
+    if (preview) preview_pub_.publish(preview);
+  }
+  if (cloud_pub_.getNumSubscribers() > 0)
+    cloud_pub_.publish(keyframeCloudMsg(map, camera, image, config_.cloud_max_cost, header));
+}
+
+void MappingNodelet::applyPoseUpdates(std::map<int64_t, Eigen::Isometry3d> updates) {
+  uint64_t applied = 0;
+  for (StoredView& view : store_) {
+    auto it = updates.find(view.id);
+    if (it == updates.end()) continue;
+    const Eigen::Isometry3d world_to_camera = it->second.inverse();
+    view.camera.R = world_to_camera.linear();
+    view.camera.t = world_to_camera.translation();
+    updates.erase(it);
+    ++applied;
+  }
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  counts_["pose_updates_applied"] += applied;
+  // Ids not (or no longer) stored: evicted, reset, or not yet processed.
+  if (!updates.empty()) counts_["pose_updates_not_stored"] += updates.size();
+}
+
+bool MappingNodelet::estimate(const amhmvs::DepthProblem& problem, amhmvs::DepthMap* map, int64_t id) {
+  const std::string which = "keyframe " + std::to_string(id) + ": ";
+  try {
+    *map = estimator_->estimate(problem);
+    return true;
+  } catch (const amhmvs::InputError& e) {
+    drop("invalid_problem", which + e.what());
+    return false;
+  } catch (const amhmvs::BackendError& e) {
+    if (estimator_->backend() == amhmvs::Backend::kCpu) {
+      drop("backend_error", which + e.what());
+      return false;
+    }
+    NODELET_ERROR_THROTTLE(kReportPeriod, "%s%s backend failed (%s): this keyframe falls back to the CPU",
+                           which.c_str(), amhmvs::backendName(estimator_->backend()), e.what());
+    count("cpu_fallbacks");
+  }
+  try {
+    if (!cpu_estimator_) cpu_estimator_.reset(new amhmvs::DepthEstimator(config_.estimator, amhmvs::Backend::kCpu));
+    *map = cpu_estimator_->estimate(problem);
+    return true;
+  } catch (const std::exception& e) {
+    drop("backend_error", which + "CPU fallback failed: " + e.what());
+    return false;
+  }
+}
+
+// -------------------------------------------------------------- services ---
+
+bool MappingNodelet::resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  size_t cleared;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    cleared = queue_.size();
+    queue_.clear();
+  }
+  {
+    std::lock_guard<std::mutex> lock(input_mutex_);
+    last_stamp_ = ros::Time();
+    have_last_keyframe_ = false;
+  }
+  reset_requested_ = true;
+  res.success = true;
+  res.message = "reset: " + std::to_string(cleared) + " queued keyframes discarded, stored keyframes cleared";
+  NODELET_INFO("%s", res.message.c_str());
+  return true;
+}
+
+bool MappingNodelet::pauseService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  paused_ = true;
+  res.success = true;
+  res.message = "paused: new input is ignored until ~resume";
+  NODELET_INFO("%s", res.message.c_str());
+  return true;
+}
+
+bool MappingNodelet::resumeService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  paused_ = false;
+  res.success = true;
+  res.message = "resumed";
+  NODELET_INFO("%s", res.message.c_str());
+  return true;
+}
+
+void MappingNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  size_t queued;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    queued = queue_.size();
+  }
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  uint64_t dropped = 0;
+  for (const auto& entry : drops_) dropped += entry.second;
+  if (dropped == 0)
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, paused_ ? "paused" : "ok");
+  else
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%lu inputs dropped", static_cast<unsigned long>(dropped));
+  status.add("backend", backend_name_);
+  status.add("input mode", config_.input_mode);
+  status.add("paused", static_cast<bool>(paused_));
+  status.add("queued", queued);
+  status.add("last estimate ms", last_estimate_ms_);
+  for (const auto& entry : counts_) status.add(entry.first, entry.second);
+  for (const auto& entry : drops_) status.add("dropped: " + entry.first, entry.second);
+}
+
+}  // namespace amhmvs_mapping
+
+PLUGINLIB_EXPORT_CLASS(amhmvs_mapping::MappingNodelet, nodelet::Nodelet)

@@ -1,0 +1,246 @@
+#include "amhmvs_mapping/ros/ros_conversions.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <sstream>
+
+#include <boost/make_shared.hpp>
+#include <sensor_msgs/image_encodings.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/io/colormap.h"
+
+namespace amhmvs_mapping {
+
+namespace enc = sensor_msgs::image_encodings;
+
+bool supportedEncoding(const std::string& encoding) {
+  return encoding == enc::MONO8 || encoding == enc::RGB8 || encoding == enc::BGR8;
+}
+
+std::string imageFromMsg(const sensor_msgs::Image& msg, amhmvs::ImageU8* image) {
+  if (!supportedEncoding(msg.encoding))
+    return "unsupported encoding '" + msg.encoding + "' (mono8, rgb8 or bgr8)";
+  const int channels = msg.encoding == enc::MONO8 ? 1 : 3;
+  if (msg.width == 0 || msg.height == 0) return "empty image";
+  const size_t row_bytes = static_cast<size_t>(msg.width) * channels;
+  if (msg.step < row_bytes || msg.data.size() < static_cast<size_t>(msg.step) * msg.height) {
+    std::ostringstream out;
+    out << "image data does not match its size: " << msg.width << "x" << msg.height << " step "
+        << msg.step << ", " << msg.data.size() << " bytes";
+    return out.str();
+  }
+  *image = amhmvs::ImageU8(msg.width, msg.height, channels);
+  const bool swap = msg.encoding == enc::BGR8;
+  for (uint32_t y = 0; y < msg.height; ++y) {
+    const uint8_t* row = msg.data.data() + static_cast<size_t>(y) * msg.step;
+    uint8_t* out = image->data.data() + y * row_bytes;
+    if (!swap) {
+      std::memcpy(out, row, row_bytes);
+    } else {
+      for (uint32_t x = 0; x < msg.width; ++x) {
+        out[3 * x] = row[3 * x + 2];
+        out[3 * x + 1] = row[3 * x + 1];
+        out[3 * x + 2] = row[3 * x];
+      }
+    }
+  }
+  return "";
+}
+
+std::string poseFromMsg(const geometry_msgs::Pose& msg, Eigen::Isometry3d* camera_to_world) {
+  const auto& p = msg.position;
+  const auto& q = msg.orientation;
+  for (double v : {p.x, p.y, p.z, q.x, q.y, q.z, q.w})
+    if (!std::isfinite(v)) return "pose has a non-finite value";
+  const Eigen::Quaterniond quaternion(q.w, q.x, q.y, q.z);
+  const double norm = quaternion.norm();
+  if (std::abs(norm - 1.0) > 1e-3) {
+    std::ostringstream out;
+    out << "pose is not rigid: quaternion norm " << norm << " (must be 1)";
+    return out.str();
+  }
+  camera_to_world->setIdentity();
+  camera_to_world->linear() = quaternion.normalized().toRotationMatrix();
+  camera_to_world->translation() = Eigen::Vector3d(p.x, p.y, p.z);
+  return "";
+}
+
+geometry_msgs::Pose poseToMsg(const Eigen::Isometry3d& camera_to_world) {
+  geometry_msgs::Pose msg;
+  const Eigen::Quaterniond q(camera_to_world.linear());
+  msg.orientation.w = q.w();
+  msg.orientation.x = q.x();
+  msg.orientation.y = q.y();
+  msg.orientation.z = q.z();
+  msg.position.x = camera_to_world.translation().x();
+  msg.position.y = camera_to_world.translation().y();
+  msg.position.z = camera_to_world.translation().z();
+  return msg;
+}
+
+std::string cameraFromMsg(const sensor_msgs::CameraInfo& info, int width, int height,
+                          const Eigen::Isometry3d& camera_to_world, amhmvs::PinholeCamera* camera,
+                          bool* distorted) {
+  if (static_cast<int>(info.width) != width || static_cast<int>(info.height) != height) {
+    std::ostringstream out;
+    out << "camera_info size " << info.width << "x" << info.height << " does not match the image "
+        << width << "x" << height;
+    return out.str();
+  }
+  amhmvs::PinholeCamera c;
+  c.fx = info.K[0];
+  c.fy = info.K[4];
+  c.cx = info.K[2];
+  c.cy = info.K[5];
+  c.width = width;
+  c.height = height;
+  if (!(std::isfinite(c.fx) && std::isfinite(c.fy) && c.fx > 0 && c.fy > 0 && std::isfinite(c.cx) &&
+        std::isfinite(c.cy)))
+    return "camera_info K has no positive finite focal length or a non-finite principal point";
+  const Eigen::Isometry3d world_to_camera = camera_to_world.inverse();
+  c.R = world_to_camera.linear();
+  c.t = world_to_camera.translation();
+  const std::string problem = c.validate();
+  if (!problem.empty()) return "camera: " + problem;
+  if (distorted) {
+    *distorted = false;
+    for (double d : info.D)
+      if (d != 0) *distorted = true;
+  }
+  *camera = c;
+  return "";
+}
+
+sensor_msgs::ImagePtr depthImageMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header) {
+  auto msg = boost::make_shared<sensor_msgs::Image>();
+  msg->header = header;
+  msg->width = depth.width;
+  msg->height = depth.height;
+  msg->encoding = enc::TYPE_32FC1;
+  msg->is_bigendian = false;
+  msg->step = depth.width * sizeof(float);
+  msg->data.resize(static_cast<size_t>(msg->step) * depth.height);
+  float* out = reinterpret_cast<float*>(msg->data.data());
+  for (size_t i = 0; i < depth.pixelCount(); ++i) {
+    const float d = depth.data[i * depth.channels];
+    out[i] = std::isfinite(d) && d > 0 ? d : std::numeric_limits<float>::quiet_NaN();
+  }
+  return msg;
+}
+
+sensor_msgs::CameraInfoPtr cameraInfoMsg(const amhmvs::PinholeCamera& camera, const std_msgs::Header& header) {
+  auto msg = boost::make_shared<sensor_msgs::CameraInfo>();
+  msg->header = header;
+  msg->width = camera.width;
+  msg->height = camera.height;
+  msg->distortion_model = "plumb_bob";
+  msg->D.assign(5, 0.0);
+  msg->K = {camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1};
+  msg->R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  msg->P = {camera.fx, 0, camera.cx, 0, 0, camera.fy, camera.cy, 0, 0, 0, 1, 0};
+  return msg;
+}
+
+sensor_msgs::ImagePtr confidenceImageMsg(const amhmvs::DepthMap& map, const std_msgs::Header& header) {
+  auto msg = depthImageMsg(map.depth, header);
+  float* out = reinterpret_cast<float*>(msg->data.data());
+  for (size_t i = 0; i < map.depth.pixelCount(); ++i) {
+    const float cost = i < map.cost.data.size() ? map.cost.data[i] : NAN;
+    out[i] = std::isfinite(out[i]) && std::isfinite(cost) ? std::clamp(1.0f - cost / 2.0f, 0.0f, 1.0f) : 0.0f;
+  }
+  return msg;
+}
+
+sensor_msgs::ImagePtr depthPreviewMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header) {
+  std::pair<float, float> range;
+  try {
+    range = amhmvs::robustRange(depth);
+  } catch (const amhmvs::InputError&) {
+    return nullptr;  // no finite pixel
+  }
+  const amhmvs::ImageU8 rgb = amhmvs::colorizeDepth(depth, range.first, range.second);
+  auto msg = boost::make_shared<sensor_msgs::Image>();
+  msg->header = header;
+  msg->width = rgb.width;
+  msg->height = rgb.height;
+  msg->encoding = enc::BGR8;
+  msg->step = rgb.width * 3;
+  msg->data.resize(static_cast<size_t>(msg->step) * rgb.height);
+  for (size_t i = 0; i < rgb.pixelCount(); ++i) {
+    msg->data[3 * i] = rgb.data[3 * i + 2];
+    msg->data[3 * i + 1] = rgb.data[3 * i + 1];
+    msg->data[3 * i + 2] = rgb.data[3 * i];
+  }
+  return msg;
+}
+
+sensor_msgs::PointCloud2Ptr keyframeCloudMsg(const amhmvs::DepthMap& map, const amhmvs::PinholeCamera& camera,
+                                             const amhmvs::ImageU8& colour, double max_cost,
+                                             const std_msgs::Header& header) {
+  const amhmvs::ImageF& depth = map.depth;
+  const bool has_normals = map.normal.channels == 3 && map.normal.sameSize(depth.width, depth.height);
+  const bool has_cost = map.cost.sameSize(depth.width, depth.height);
+  const bool has_colour = colour.sameSize(depth.width, depth.height) && (colour.channels == 1 || colour.channels == 3);
+  auto valid = [&](int x, int y) {
+    const float d = depth.at(x, y);
+    if (!(std::isfinite(d) && d > 0)) return false;
+    if (has_cost && !(map.cost.at(x, y) <= max_cost)) return false;
+    if (has_normals) {
+      for (int c = 0; c < 3; ++c)
+        if (!std::isfinite(map.normal.at(x, y, c))) return false;
+    }
+    return true;
+  };
+  size_t count = 0;
+  for (int y = 0; y < depth.height; ++y)
+    for (int x = 0; x < depth.width; ++x) count += valid(x, y);
+
+  auto msg = boost::make_shared<sensor_msgs::PointCloud2>();
+  msg->header = header;
+  sensor_msgs::PointCloud2Modifier modifier(*msg);
+  modifier.setPointCloud2Fields(7, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
+                                sensor_msgs::PointField::FLOAT32, "z", 1, sensor_msgs::PointField::FLOAT32,
+                                "rgb", 1, sensor_msgs::PointField::FLOAT32, "normal_x", 1,
+                                sensor_msgs::PointField::FLOAT32, "normal_y", 1,
+                                sensor_msgs::PointField::FLOAT32, "normal_z", 1,
+                                sensor_msgs::PointField::FLOAT32);
+  modifier.resize(count);
+  msg->height = 1;
+  msg->width = count;
+  msg->is_dense = true;
+  sensor_msgs::PointCloud2Iterator<float> it_x(*msg, "x"), it_y(*msg, "y"), it_z(*msg, "z");
+  sensor_msgs::PointCloud2Iterator<float> it_rgb(*msg, "rgb");
+  sensor_msgs::PointCloud2Iterator<float> it_nx(*msg, "normal_x"), it_ny(*msg, "normal_y"), it_nz(*msg, "normal_z");
+  for (int y = 0; y < depth.height; ++y) {
+    for (int x = 0; x < depth.width; ++x) {
+      if (!valid(x, y)) continue;
+      const Eigen::Vector3d p = camera.backproject(x, y, depth.at(x, y));
+      *it_x = static_cast<float>(p.x());
+      *it_y = static_cast<float>(p.y());
+      *it_z = static_cast<float>(p.z());
+      uint32_t r = 200, g = 200, b = 200;
+      if (has_colour) {
+        r = colour.at(x, y, 0);
+        g = colour.channels == 3 ? colour.at(x, y, 1) : r;
+        b = colour.channels == 3 ? colour.at(x, y, 2) : r;
+      }
+      const uint32_t packed = (r << 16) | (g << 8) | b;
+      float packed_float;
+      std::memcpy(&packed_float, &packed, sizeof(float));
+      *it_rgb = packed_float;
+      Eigen::Vector3f n(0, 0, -1);
+      if (has_normals) n = Eigen::Vector3f(map.normal.at(x, y, 0), map.normal.at(x, y, 1), map.normal.at(x, y, 2));
+      *it_nx = n.x();
+      *it_ny = n.y();
+      *it_nz = n.z();
+      ++it_x, ++it_y, ++it_z, ++it_rgb, ++it_nx, ++it_ny, ++it_nz;
+    }
+  }
+  return msg;
+}
+
+}  // namespace amhmvs_mapping

@@ -1,0 +1,156 @@
+#!/usr/bin/env python3
+"""rostest checker of the mapping nodelet's outputs on a replayed bag.
+
+Records the input image stamps and every output (depth/image, depth/camera_info,
+confidence/image, depth/preview, keyframe_cloud, /diagnostics), waits until
+all frames were played and every keyframe with source views has its depth (or
+the timeout), then checks them. The first keyframe has no source view: it is
+stored as one and gets no depth, so expected_frames - 1 depth maps come out
+(every frame of the fountain bag is a keyframe: ~1.5 m between frames).
+"""
+import math
+import struct
+import sys
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticArray
+from sensor_msgs.msg import CameraInfo, Image, PointCloud2
+import sensor_msgs.point_cloud2 as pc2
+
+
+class Recorder:
+    def __init__(self, ns, image_topic):
+        self.lock = threading.Lock()
+        self.images, self.depth, self.info, self.confidence, self.preview, self.clouds = [], [], [], [], [], []
+        self.diagnostics = {}
+        subs = [(image_topic, Image, self.images), (ns + '/depth/image', Image, self.depth),
+                (ns + '/depth/camera_info', CameraInfo, self.info),
+                (ns + '/confidence/image', Image, self.confidence),
+                (ns + '/depth/preview', Image, self.preview), (ns + '/keyframe_cloud', PointCloud2, self.clouds)]
+        self.subscribers = [rospy.Subscriber(t, cls, self._append, callback_args=store, queue_size=50,
+                                             buff_size=1 << 24) for t, cls, store in subs]
+        self.subscribers.append(rospy.Subscriber('/diagnostics', DiagnosticArray, self._diagnostics))
+
+    def _append(self, msg, store):
+        with self.lock:
+            store.append(msg)
+
+    def _diagnostics(self, msg):
+        for status in msg.status:
+            if 'depth estimation' in status.name:
+                with self.lock:
+                    self.diagnostics = {kv.key: kv.value for kv in status.values}
+
+
+def floats(msg):
+    return struct.unpack('<%df' % (msg.width * msg.height), bytes(msg.data))
+
+
+class ReplayOutputs(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('check_outputs')
+        cls.ns = rospy.get_param('~namespace', '/amhmvs')
+        cls.expected_frames = rospy.get_param('~expected_frames', 11)
+        cls.optical_frame = rospy.get_param('~optical_frame', 'camera_optical')
+        cls.min_depth = rospy.get_param('~min_depth', 4.0)
+        cls.max_depth = rospy.get_param('~max_depth', 20.0)
+        cls.max_image_size = rospy.get_param('~max_image_size', 256)
+        timeout = rospy.get_param('~timeout', 240.0)
+        rec = Recorder(cls.ns, rospy.get_param('~image_topic', '/camera/image_raw'))
+        start = time.time()  # wall clock: simulated time stops with the bag
+        expected_depth = cls.expected_frames - 1
+        while time.time() - start < timeout:
+            with rec.lock:
+                done = (len(rec.images) >= cls.expected_frames and len(rec.depth) >= expected_depth
+                        and len(rec.clouds) >= expected_depth and len(rec.info) >= expected_depth)
+            if done:
+                break
+            time.sleep(0.5)
+        time.sleep(3.0)  # late messages and one more diagnostics update
+        cls.rec = rec
+        cls.elapsed = time.time() - start
+        rospy.loginfo('check_outputs: %d images, %d depth, %d info, %d confidence, %d preview, %d clouds in %.0f s; '
+                      'diagnostics %s', len(rec.images), len(rec.depth), len(rec.info), len(rec.confidence),
+                      len(rec.preview), len(rec.clouds), cls.elapsed, rec.diagnostics)
+
+    def test_01_all_frames_played(self):
+        self.assertEqual(len(self.rec.images), self.expected_frames)
+
+    def test_02_depth_for_every_keyframe_with_sources(self):
+        image_stamps = sorted(m.header.stamp for m in self.rec.images)
+        depth_stamps = [m.header.stamp for m in self.rec.depth]
+        # Every frame is a keyframe; the first has no source view: no depth.
+        self.assertEqual(depth_stamps, image_stamps[1:])
+
+    def test_03_depth_format(self):
+        self.assertTrue(self.rec.depth)
+        for msg in self.rec.depth:
+            self.assertEqual(msg.encoding, '32FC1')
+            self.assertEqual(msg.header.frame_id, self.optical_frame)
+            self.assertEqual(max(msg.width, msg.height), self.max_image_size)
+            self.assertEqual(msg.step, 4 * msg.width)
+            self.assertEqual(len(msg.data), msg.step * msg.height)
+
+    def test_04_camera_info_matches_depth(self):
+        infos = {m.header.stamp: m for m in self.rec.info}
+        image = self.rec.images[0]
+        for depth in self.rec.depth:
+            self.assertIn(depth.header.stamp, infos)
+            info = infos[depth.header.stamp]
+            self.assertEqual((info.width, info.height), (depth.width, depth.height))
+            self.assertEqual(info.header.frame_id, depth.header.frame_id)
+            scale = depth.width / image.width
+            self.assertAlmostEqual(info.K[0], 689.87 * scale, delta=1e-3 * 689.87)
+
+    def test_05_depth_values(self):
+        for msg in self.rec.depth:
+            values = floats(msg)
+            finite = [v for v in values if math.isfinite(v)]
+            fraction = len(finite) / len(values)
+            self.assertGreater(fraction, 0.8, 'stamp %s: %.0f %% finite' % (msg.header.stamp, 100 * fraction))
+            inside = sum(1 for v in finite if self.min_depth <= v <= self.max_depth) / len(finite)
+            self.assertGreater(inside, 0.99)
+            median = sorted(finite)[len(finite) // 2]
+            self.assertTrue(5.0 <= median <= 18.5, 'median depth %.2f m outside the fountain range' % median)
+
+    def test_06_confidence_and_preview(self):
+        self.assertEqual(len(self.rec.confidence), len(self.rec.depth))
+        for msg in self.rec.confidence:
+            self.assertEqual(msg.encoding, '32FC1')
+            values = floats(msg)
+            self.assertTrue(all(0.0 <= v <= 1.0 for v in values))
+        self.assertEqual(len(self.rec.preview), len(self.rec.depth))
+        for msg in self.rec.preview:
+            self.assertEqual(msg.encoding, 'bgr8')
+            self.assertEqual(len(msg.data), 3 * msg.width * msg.height)
+
+    def test_07_keyframe_clouds(self):
+        self.assertEqual([m.header.stamp for m in self.rec.clouds], [m.header.stamp for m in self.rec.depth])
+        for msg in self.rec.clouds:
+            self.assertEqual(msg.header.frame_id, self.optical_frame)
+            names = [f.name for f in msg.fields]
+            self.assertEqual(names, ['x', 'y', 'z', 'rgb', 'normal_x', 'normal_y', 'normal_z'])
+            self.assertGreater(msg.width * msg.height, 1000)
+            points = list(pc2.read_points(msg, field_names=names))
+            self.assertEqual(len(points), msg.width * msg.height)
+            for p in points:
+                self.assertTrue(all(math.isfinite(v) for v in p))
+            zs = sorted(p[2] for p in points)
+            self.assertTrue(self.min_depth <= zs[len(zs) // 2] <= self.max_depth)
+
+    def test_08_diagnostics_counts(self):
+        diag = self.rec.diagnostics
+        self.assertTrue(diag, 'no diagnostics received')
+        self.assertEqual(diag.get('keyframes_received'), str(self.expected_frames))
+        self.assertEqual(diag.get('keyframes_without_sources'), '1')  # the first keyframe
+        self.assertEqual(diag.get('depth_maps'), str(self.expected_frames - 1))
+        self.assertEqual([k for k in diag if k.startswith('dropped')], [])
+
+
+if __name__ == '__main__':
+    rostest.rosrun('amhmvs_mapping', 'replay_fountain', ReplayOutputs, sys.argv)

@@ -1,0 +1,158 @@
+// Message conversions and output builders of the mapping nodelet
+// (src/ros/ros_conversions.cpp): bad input is refused with a reason, outputs
+// follow REP-118 and carry no NaN points.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include "amhmvs_mapping/ros/ros_conversions.h"
+
+using namespace amhmvs_mapping;
+
+namespace {
+
+sensor_msgs::Image imageMsg(const std::string& encoding, int width, int height, int channels) {
+  sensor_msgs::Image msg;
+  msg.encoding = encoding;
+  msg.width = width;
+  msg.height = height;
+  msg.step = width * channels + 3;  // padded rows
+  msg.data.resize(msg.step * height);
+  for (size_t i = 0; i < msg.data.size(); ++i) msg.data[i] = static_cast<uint8_t>(i % 251);
+  return msg;
+}
+
+geometry_msgs::Pose identityPose() {
+  geometry_msgs::Pose pose;
+  pose.orientation.w = 1;
+  return pose;
+}
+
+sensor_msgs::CameraInfo infoMsg(int width, int height) {
+  sensor_msgs::CameraInfo info;
+  info.width = width;
+  info.height = height;
+  info.K = {100, 0, (width - 1) / 2.0, 0, 100, (height - 1) / 2.0, 0, 0, 1};
+  return info;
+}
+
+}  // namespace
+
+TEST(RosConversions, ImagesByEncodingWithPaddedRows) {
+  amhmvs::ImageU8 image;
+  const sensor_msgs::Image bgr = imageMsg("bgr8", 5, 4, 3);
+  ASSERT_EQ(imageFromMsg(bgr, &image), "");
+  ASSERT_EQ(image.channels, 3);
+  EXPECT_EQ(image.at(2, 3, 0), bgr.data[3 * bgr.step + 2 * 3 + 2]);  // R from the third byte
+  EXPECT_EQ(image.at(2, 3, 2), bgr.data[3 * bgr.step + 2 * 3 + 0]);
+  const sensor_msgs::Image rgb = imageMsg("rgb8", 5, 4, 3);
+  ASSERT_EQ(imageFromMsg(rgb, &image), "");
+  EXPECT_EQ(image.at(4, 1, 1), rgb.data[1 * rgb.step + 4 * 3 + 1]);
+  const sensor_msgs::Image mono = imageMsg("mono8", 5, 4, 1);
+  ASSERT_EQ(imageFromMsg(mono, &image), "");
+  EXPECT_EQ(image.channels, 1);
+  EXPECT_EQ(image.at(3, 2), mono.data[2 * mono.step + 3]);
+
+  EXPECT_NE(imageFromMsg(imageMsg("16UC1", 5, 4, 2), &image).find("unsupported encoding"), std::string::npos);
+  EXPECT_FALSE(supportedEncoding("bgra8"));
+  sensor_msgs::Image truncated = rgb;
+  truncated.data.resize(10);
+  EXPECT_NE(imageFromMsg(truncated, &image), "");
+}
+
+TEST(RosConversions, PosesMustBeFiniteAndRigid) {
+  Eigen::Isometry3d pose;
+  geometry_msgs::Pose msg = identityPose();
+  msg.position.x = 1.5;
+  ASSERT_EQ(poseFromMsg(msg, &pose), "");
+  EXPECT_DOUBLE_EQ(pose.translation().x(), 1.5);
+  msg.position.y = std::nan("");
+  EXPECT_NE(poseFromMsg(msg, &pose).find("non-finite"), std::string::npos);
+  msg = identityPose();
+  msg.orientation.w = 2;  // a scaled rotation
+  EXPECT_NE(poseFromMsg(msg, &pose).find("not rigid"), std::string::npos);
+  msg.orientation.w = 0;  // all-zero quaternion
+  EXPECT_NE(poseFromMsg(msg, &pose), "");
+}
+
+TEST(RosConversions, CameraInfoMustMatchTheImage) {
+  amhmvs::PinholeCamera camera;
+  bool distorted = true;
+  sensor_msgs::CameraInfo info = infoMsg(100, 80);
+  ASSERT_EQ(cameraFromMsg(info, 100, 80, Eigen::Isometry3d::Identity(), &camera, &distorted), "");
+  EXPECT_FALSE(distorted);
+  EXPECT_DOUBLE_EQ(camera.fx, 100);
+  EXPECT_NE(cameraFromMsg(info, 200, 80, Eigen::Isometry3d::Identity(), &camera).find("does not match"),
+            std::string::npos);
+  info.K[0] = 0;
+  EXPECT_NE(cameraFromMsg(info, 100, 80, Eigen::Isometry3d::Identity(), &camera), "");
+  info = infoMsg(100, 80);
+  info.D = {0.1, 0, 0, 0, 0};
+  ASSERT_EQ(cameraFromMsg(info, 100, 80, Eigen::Isometry3d::Identity(), &camera, &distorted), "");
+  EXPECT_TRUE(distorted);
+}
+
+TEST(RosConversions, DepthOutputsAndCloud) {
+  amhmvs::PinholeCamera camera;
+  ASSERT_EQ(cameraFromMsg(infoMsg(4, 3), 4, 3, Eigen::Isometry3d::Identity(), &camera), "");
+  amhmvs::DepthMap map;
+  map.depth = amhmvs::ImageF(4, 3, 1, 2.0f);
+  map.normal = amhmvs::ImageF(4, 3, 3, 0.0f);
+  map.cost = amhmvs::ImageF(4, 3, 1, 0.2f);
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 4; ++x) map.normal.at(x, y, 2) = -1;
+  map.depth.at(0, 0) = NAN;          // invalid
+  map.cost.at(1, 0) = 1.5f;          // too costly for the cloud
+  map.normal.at(2, 0, 0) = NAN;      // no normal
+  std_msgs::Header header;
+  header.frame_id = "cam";
+  header.stamp = ros::Time(12, 5);
+
+  const sensor_msgs::ImagePtr depth = depthImageMsg(map.depth, header);
+  EXPECT_EQ(depth->encoding, "32FC1");
+  EXPECT_EQ(depth->header.frame_id, "cam");
+  EXPECT_EQ(depth->step, 16u);
+  float values[12];
+  std::memcpy(values, depth->data.data(), sizeof(values));
+  EXPECT_TRUE(std::isnan(values[0]));
+  EXPECT_FLOAT_EQ(values[1], 2.0f);
+
+  const sensor_msgs::CameraInfoPtr info = cameraInfoMsg(camera, header);
+  EXPECT_EQ(info->width, 4u);
+  EXPECT_EQ(info->height, 3u);
+  EXPECT_DOUBLE_EQ(info->P[0], 100);
+
+  const sensor_msgs::ImagePtr confidence = confidenceImageMsg(map, header);
+  std::memcpy(values, confidence->data.data(), sizeof(values));
+  EXPECT_FLOAT_EQ(values[0], 0.0f);
+  EXPECT_FLOAT_EQ(values[1], 0.25f);
+  EXPECT_FLOAT_EQ(values[3], 0.9f);
+
+  const sensor_msgs::ImagePtr preview = depthPreviewMsg(map.depth, header);
+  ASSERT_TRUE(preview);
+  EXPECT_EQ(preview->encoding, "bgr8");
+  EXPECT_FALSE(depthPreviewMsg(amhmvs::ImageF(2, 2, 1, NAN), header));
+
+  amhmvs::ImageU8 colour(4, 3, 3, 0);
+  colour.at(3, 2, 0) = 255;  // red last pixel
+  const sensor_msgs::PointCloud2Ptr cloud = keyframeCloudMsg(map, camera, colour, 0.6, header);
+  ASSERT_EQ(cloud->width * cloud->height, 9u);  // 12 - NaN depth - costly - NaN normal
+  EXPECT_TRUE(cloud->is_dense);
+  ASSERT_EQ(cloud->fields.size(), 7u);
+  EXPECT_EQ(cloud->fields[3].name, "rgb");
+  EXPECT_EQ(cloud->fields[6].name, "normal_z");
+  sensor_msgs::PointCloud2ConstIterator<float> x(*cloud, "x"), z(*cloud, "z"), nz(*cloud, "normal_z");
+  sensor_msgs::PointCloud2ConstIterator<uint8_t> rgb(*cloud, "rgb");
+  for (size_t i = 0; i < 9; ++i, ++x, ++z, ++nz, ++rgb) {
+    EXPECT_TRUE(std::isfinite(*x));
+    EXPECT_FLOAT_EQ(z[0], 2.0f);
+    EXPECT_FLOAT_EQ(nz[0], -1.0f);
+    if (i == 8) {
+      EXPECT_FLOAT_EQ(x[0], static_cast<float>((3 - 1.5) / 100 * 2));
+      EXPECT_EQ(rgb[2], 255);  // packed 0x00RRGGBB, little endian: byte 2 is red
+    }
+  }
+}

@@ -1,0 +1,285 @@
+// Global voxel map (voxel_map.h): averaging per voxel, exact incremental
+// removal and re-posing, memory bounds, and no NaN/inf ever emitted.
+#include "amhmvs_mapping/mapping/voxel_map.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "amhmvs_mapping/core/error.h"
+#include "test_helpers.h"
+
+namespace amhmvs {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+Eigen::Isometry3d pose(const Eigen::Vector3d& translation, double angle_rad = 0,
+                       const Eigen::Vector3d& axis = Eigen::Vector3d::UnitY()) {
+  Eigen::Isometry3d result = Eigen::Isometry3d::Identity();
+  result.linear() = Eigen::AngleAxisd(angle_rad, axis.normalized()).matrix();
+  result.translation() = translation;
+  return result;
+}
+
+KeyframePoint makePoint(float x, float y, float z, uint8_t grey = 100, float confidence = 1.f) {
+  KeyframePoint point;
+  point.position = Eigen::Vector3f(x, y, z);
+  point.normal = Eigen::Vector3f(0, 0, -1);
+  point.rgb[0] = point.rgb[1] = point.rgb[2] = grey;
+  point.confidence = confidence;
+  return point;
+}
+
+// A grid of n x n points at z-depth 2, spaced `spacing` apart.
+KeyframePoints gridPoints(int n, float spacing, uint8_t grey = 100) {
+  KeyframePoints points;
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) points.push_back(makePoint(spacing * i, spacing * j, 2.f, grey));
+  }
+  return points;
+}
+
+void expectAllFinite(const MapCloud& cloud) {
+  ASSERT_EQ(cloud.normals.size(), cloud.size());
+  ASSERT_EQ(cloud.colors.size(), cloud.size());
+  ASSERT_EQ(cloud.confidences.size(), cloud.size());
+  ASSERT_EQ(cloud.counts.size(), cloud.size());
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    ASSERT_TRUE(cloud.positions[i].allFinite()) << i;
+    ASSERT_TRUE(cloud.normals[i].allFinite()) << i;
+    ASSERT_TRUE(std::isfinite(cloud.confidences[i])) << i;
+    ASSERT_GT(cloud.counts[i], 0u);
+  }
+}
+
+// Index of the exported point nearest to `point`.
+size_t nearest(const MapCloud& cloud, const Eigen::Vector3f& point) {
+  size_t best = 0;
+  for (size_t i = 1; i < cloud.size(); ++i) {
+    if ((cloud.positions[i] - point).squaredNorm() <
+        (cloud.positions[best] - point).squaredNorm()) {
+      best = i;
+    }
+  }
+  return best;
+}
+
+TEST(VoxelMap, AveragesPointsPerVoxel) {
+  VoxelMapOptions options;
+  options.leaf_size = 0.1;
+  VoxelMap map(options);
+  KeyframePoint a = makePoint(0.01f, 0.01f, 0.01f, 10, 1.f);
+  a.normal = Eigen::Vector3f(0, 0, 1);
+  a.rgb[2] = 30;
+  KeyframePoint b = makePoint(0.03f, 0.05f, 0.07f, 20, 3.f);
+  b.normal = Eigen::Vector3f(0, 1, 0);
+  b.rgb[2] = 61;
+  const KeyframePoint c = makePoint(0.55f, 0.f, 0.f);
+  const VoxelMapUpdate update = map.addKeyframe(1, Eigen::Isometry3d::Identity(), {a, b, c});
+  EXPECT_EQ(update.added_points, 3u);
+  EXPECT_EQ(map.voxelCount(), 2u);
+
+  const MapCloud cloud = map.exportCloud();
+  expectAllFinite(cloud);
+  const size_t i = nearest(cloud, Eigen::Vector3f(0.02f, 0.03f, 0.04f));
+  EXPECT_TRUE(cloud.positions[i].isApprox(Eigen::Vector3f(0.02f, 0.03f, 0.04f), 1e-6f));
+  EXPECT_TRUE(cloud.normals[i].isApprox(Eigen::Vector3f(0, 1, 1).normalized(), 1e-6f));
+  EXPECT_EQ(cloud.colors[i], (Eigen::Matrix<uint8_t, 3, 1>(15, 15, 46)));  // 45.5 rounds up
+  EXPECT_FLOAT_EQ(cloud.confidences[i], 2.f);
+  EXPECT_EQ(cloud.counts[i], 2u);
+  EXPECT_EQ(cloud.counts[1 - i], 1u);
+}
+
+TEST(VoxelMap, OpposingNormalsGiveZeroNormalNotNaN) {
+  VoxelMap map;
+  KeyframePoint up = makePoint(0.001f, 0.001f, 0.001f);
+  up.normal = Eigen::Vector3f(0, 0, 1);
+  KeyframePoint down = up;
+  down.normal = Eigen::Vector3f(0, 0, -1);
+  map.addKeyframe(1, Eigen::Isometry3d::Identity(), {up, down});
+  const MapCloud cloud = map.exportCloud();
+  ASSERT_EQ(cloud.size(), 1u);
+  EXPECT_EQ(cloud.normals[0], Eigen::Vector3f::Zero());
+}
+
+TEST(VoxelMap, RePosedKeyframeMovesExactlyItsPoints) {
+  VoxelMapOptions options;
+  options.leaf_size = 0.05;
+  VoxelMap map(options);
+  // Points 0.3 m apart: one point per voxel.
+  const KeyframePoints points_a = gridPoints(10, 0.3f, 50);
+  const KeyframePoints points_b = gridPoints(10, 0.3f, 200);
+  const Eigen::Isometry3d pose_a = pose(Eigen::Vector3d(0.1, 0.2, 0.3), 0.2);
+  const Eigen::Isometry3d pose_b = pose(Eigen::Vector3d(60, 0, 0), -0.4);
+  map.addKeyframe(1, pose_a, points_a);
+  map.addKeyframe(2, pose_b, points_b);
+  const MapCloud before = map.exportCloud();
+  ASSERT_EQ(before.size(), 200u);
+
+  const Eigen::Isometry3d new_pose_a =
+      pose(Eigen::Vector3d(-5.3, 1.7, 2.2), 1.1, Eigen::Vector3d(1, 2, 3));
+  const VoxelMapUpdate update = map.updatePose(1, new_pose_a);
+  EXPECT_EQ(update.added_points, 100u);
+  EXPECT_TRUE(update.evicted_keyframes.empty());
+  EXPECT_EQ(map.keyframeIds(), (std::vector<int64_t>{1, 2}));  // keeps its place
+  EXPECT_TRUE(map.pose(1).matrix().isApprox(new_pose_a.matrix()));
+  const MapCloud after = map.exportCloud();
+  expectAllFinite(after);
+  ASSERT_EQ(after.size(), 200u);
+
+  // Keyframe 2's points (x > 50) are bit-for-bit unchanged.
+  std::vector<Eigen::Vector3f> b_before, b_after;
+  for (const auto& p : before.positions)
+    if (p.x() > 50) b_before.push_back(p);
+  for (const auto& p : after.positions)
+    if (p.x() > 50) b_after.push_back(p);
+  EXPECT_EQ(b_before, b_after);
+  ASSERT_EQ(b_after.size(), 100u);
+  // Keyframe 1's points are the rigid transform of its camera-frame points.
+  for (const KeyframePoint& point : points_a) {
+    const Eigen::Vector3f expected = (new_pose_a * point.position.cast<double>()).cast<float>();
+    const size_t i = nearest(after, expected);
+    EXPECT_LT((after.positions[i] - expected).norm(), 1e-5f);
+    EXPECT_EQ(after.colors[i][0], 50);
+    const Eigen::Vector3f normal = (new_pose_a.linear() * Eigen::Vector3d(0, 0, -1)).cast<float>();
+    EXPECT_LT((after.normals[i] - normal).norm(), 1e-5f);
+  }
+}
+
+TEST(VoxelMap, RemovalIsExactAfterManyRePoses) {
+  VoxelMapOptions options;
+  options.leaf_size = 0.1;
+  VoxelMap map(options), reference(options);
+  // Both keyframes fill the same voxels, far from the origin (large
+  // coordinates make rounding errors visible if sums drift).
+  const Eigen::Isometry3d far_away = pose(Eigen::Vector3d(1000.3, -2000.7, 500.1), 0.3);
+  const KeyframePoints points_a = gridPoints(20, 0.037f, 10);
+  const KeyframePoints points_b = gridPoints(20, 0.041f, 240);
+  map.addKeyframe(1, far_away, points_a);
+  map.addKeyframe(2, far_away, points_b);
+  reference.addKeyframe(2, far_away, points_b);
+  for (int i = 0; i < 500; ++i) {
+    map.updatePose(1, pose(Eigen::Vector3d(1000 + 0.001 * i, -2000.7, 500.1), 0.3 + 0.01 * i));
+    map.updatePose(1, far_away);
+  }
+  map.removeKeyframe(1);
+  const MapCloud cloud = map.exportCloud();
+  const MapCloud expected = reference.exportCloud();
+  ASSERT_EQ(cloud.size(), expected.size());
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    EXPECT_LT((cloud.positions[i] - expected.positions[i]).norm(), 1e-5f);
+    EXPECT_LT((cloud.normals[i] - expected.normals[i]).norm(), 1e-6f);
+    EXPECT_EQ(cloud.colors[i], expected.colors[i]);
+    EXPECT_EQ(cloud.counts[i], expected.counts[i]);
+    EXPECT_NEAR(cloud.confidences[i], expected.confidences[i], 1e-6f);
+  }
+  EXPECT_EQ(map.storedPointCount(), points_b.size());
+  map.removeKeyframe(2);
+  EXPECT_EQ(map.voxelCount(), 0u);
+  EXPECT_EQ(map.storedPointCount(), 0u);
+  EXPECT_EQ(map.exportCloud().size(), 0u);
+}
+
+TEST(VoxelMap, InvalidPointsAreSkippedAndCounted) {
+  VoxelMap map;
+  KeyframePoints points = gridPoints(3, 0.5f);  // 9 good points
+  points.push_back(makePoint(kNaN, 0, 1));
+  points.push_back(makePoint(0, kInf, 1));
+  points.push_back(makePoint(0, 0, 1, 100, kNaN));
+  points.push_back(makePoint(0, 0, 1, 100, -1.f));
+  KeyframePoint bad_normal = makePoint(0, 0, 1);
+  bad_normal.normal.x() = kNaN;
+  points.push_back(bad_normal);
+  points.push_back(makePoint(1e30f, 0, 1));  // beyond the voxel index range
+  const VoxelMapUpdate update = map.addKeyframe(1, Eigen::Isometry3d::Identity(), points);
+  EXPECT_EQ(update.added_points, 9u);
+  EXPECT_EQ(update.skipped_invalid, 6u);
+  EXPECT_EQ(map.totalSkippedInvalid(), 6u);
+  EXPECT_EQ(map.storedPointCount(), 9u);
+  const MapCloud cloud = map.exportCloud();
+  EXPECT_EQ(cloud.size(), 9u);
+  expectAllFinite(cloud);
+  // A re-pose that throws the points out of range skips them too.
+  const VoxelMapUpdate moved = map.updatePose(1, pose(Eigen::Vector3d(1e12, 0, 0)));
+  EXPECT_EQ(moved.skipped_invalid, 9u);
+  EXPECT_EQ(map.voxelCount(), 0u);
+  expectAllFinite(map.exportCloud());
+}
+
+TEST(VoxelMap, BadInputIsAClearError) {
+  VoxelMap map;
+  Eigen::Isometry3d nan_pose = Eigen::Isometry3d::Identity();
+  nan_pose.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_INPUT_ERROR(map.addKeyframe(3, nan_pose, gridPoints(2, 0.1f)), "keyframe 3", "non-finite");
+  Eigen::Isometry3d scaled = Eigen::Isometry3d::Identity();
+  scaled.linear() *= 2;
+  EXPECT_INPUT_ERROR(map.addKeyframe(3, scaled, gridPoints(2, 0.1f)), "keyframe 3", "not rigid");
+  EXPECT_EQ(map.keyframeCount(), 0u);
+  EXPECT_INPUT_ERROR(map.removeKeyframe(4), "keyframe 4", "not in the map");
+  EXPECT_INPUT_ERROR(map.updatePose(4, Eigen::Isometry3d::Identity()), "keyframe 4",
+                     "not in the map");
+  EXPECT_INPUT_ERROR(map.pose(4), "keyframe 4", "not in the map");
+  map.addKeyframe(5, Eigen::Isometry3d::Identity(), gridPoints(2, 0.1f));
+  EXPECT_INPUT_ERROR(map.updatePose(5, scaled), "keyframe 5", "not rigid");
+  EXPECT_TRUE(map.pose(5).matrix().isIdentity());
+
+  VoxelMapOptions options;
+  options.leaf_size = 0;
+  EXPECT_INPUT_ERROR(VoxelMap{options}, "leaf_size", "positive");
+  options = VoxelMapOptions();
+  options.max_voxels = 0;
+  EXPECT_INPUT_ERROR(VoxelMap{options}, "max_voxels", "positive");
+}
+
+TEST(VoxelMap, ReAddingAnIdReplacesItsContribution) {
+  VoxelMap map;
+  map.addKeyframe(1, Eigen::Isometry3d::Identity(), gridPoints(4, 0.5f));
+  map.addKeyframe(2, pose(Eigen::Vector3d(10, 0, 0)), gridPoints(4, 0.5f));
+  map.addKeyframe(1, Eigen::Isometry3d::Identity(), gridPoints(2, 0.5f));
+  EXPECT_EQ(map.voxelCount(), 16u + 4u);
+  EXPECT_EQ(map.storedPointCount(), 20u);
+  EXPECT_EQ(map.keyframeIds(), (std::vector<int64_t>{2, 1}));  // re-added = newest
+}
+
+TEST(VoxelMap, BoundsEvictOldestKeyframesAndDropTheRest) {
+  VoxelMapOptions options;
+  options.leaf_size = 0.1;
+  options.max_voxels = 1000;
+  options.max_points = 2000;
+  options.max_keyframes = 5;
+  VoxelMap map(options);
+  // Keyframes of 400 points in their own voxels: 2 fit in 1000 voxels.
+  for (int64_t id = 0; id < 6; ++id) {
+    const VoxelMapUpdate update =
+        map.addKeyframe(id, pose(Eigen::Vector3d(100.0 * id, 0, 0)), gridPoints(20, 0.3f));
+    if (id < 2) EXPECT_TRUE(update.evicted_keyframes.empty());
+    if (id >= 2) EXPECT_EQ(update.evicted_keyframes, std::vector<int64_t>{id - 2});
+    EXPECT_LE(map.voxelCount(), options.max_voxels);
+  }
+  EXPECT_EQ(map.keyframeIds(), (std::vector<int64_t>{4, 5}));
+  EXPECT_EQ(map.totalEvictedKeyframes(), 4u);
+
+  // Points sharing voxels cost no voxel budget; max_keyframes binds.
+  for (int64_t id = 6; id < 12; ++id) {
+    map.addKeyframe(id, pose(Eigen::Vector3d(500, 0, 0)), KeyframePoints(1, makePoint(0, 0, 2)));
+    EXPECT_LE(map.keyframeCount(), options.max_keyframes);
+  }
+  EXPECT_EQ(map.keyframeIds(), (std::vector<int64_t>{7, 8, 9, 10, 11}));
+
+  // A keyframe that alone exceeds the budget keeps what fits.
+  const VoxelMapUpdate big =
+      map.addKeyframe(20, pose(Eigen::Vector3d(-100, 0, 0)), gridPoints(40, 0.3f));  // 1600
+  EXPECT_EQ(map.keyframeIds(), std::vector<int64_t>{20});
+  EXPECT_EQ(big.added_points, 1000u);
+  EXPECT_EQ(big.dropped_over_budget, 600u);
+  EXPECT_EQ(map.voxelCount(), 1000u);
+  EXPECT_GT(map.memoryBytes(), 1000 * sizeof(KeyframePoint));
+  expectAllFinite(map.exportCloud());
+}
+
+}  // namespace
+}  // namespace amhmvs
