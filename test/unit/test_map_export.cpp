@@ -1,0 +1,76 @@
+// Fused keyframe points -> global voxel map -> PLY and PCD files.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <iterator>
+
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mapping/map_export.h"
+#include "test_helpers.h"
+
+namespace amhmvs {
+namespace {
+
+// A 10 x 10 grid of fused points on the plane z = 2 of a keyframe, 0.05 m
+// apart (one point per 0.02 m voxel), with distinct colours.
+std::vector<FusedPoint> fusedGrid() {
+  std::vector<FusedPoint> fused;
+  for (int i = 0; i < 10; ++i) {
+    for (int j = 0; j < 10; ++j) {
+      FusedPoint p;
+      p.position = Eigen::Vector3f(0.05f * i + 0.011f, 0.05f * j + 0.011f, 2.0f);
+      p.normal = Eigen::Vector3f(0, 0, -1);
+      p.r = static_cast<uint8_t>(20 * i);
+      p.g = static_cast<uint8_t>(20 * j);
+      p.b = 7;
+      p.confidence = 0.5f;
+      fused.push_back(p);
+    }
+  }
+  return fused;
+}
+
+TEST(MapExport, FusedPointsKeepEveryAttribute) {
+  const std::vector<FusedPoint> fused = fusedGrid();
+  const KeyframePoints points = toKeyframePoints(fused);
+  ASSERT_EQ(points.size(), fused.size());
+  EXPECT_EQ(points[13].position, fused[13].position);
+  EXPECT_EQ(points[13].normal, fused[13].normal);
+  EXPECT_EQ(points[13].rgb[0], fused[13].r);
+  EXPECT_EQ(points[13].rgb[1], fused[13].g);
+  EXPECT_EQ(points[13].rgb[2], fused[13].b);
+  EXPECT_FLOAT_EQ(points[13].confidence, 0.5f);
+}
+
+TEST(MapExport, MapWritesPlyWithNormalsAndColourAndPcd) {
+  VoxelMap map;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = Eigen::Vector3d(1, 0, 0);
+  map.addKeyframe(7, pose, toKeyframePoints(fusedGrid()));
+  ASSERT_EQ(map.voxelCount(), 100u);
+
+  test::TempDir dir;
+  writeMap(dir.file("map.ply"), map);
+  const PointCloud ply = readPly(dir.file("map.ply"));
+  ASSERT_EQ(ply.size(), 100u);
+  ASSERT_EQ(ply.normals.size(), 100u);
+  ASSERT_EQ(ply.colors.size(), 100u);
+  float min_x = 1e9f;
+  for (size_t i = 0; i < ply.size(); ++i) {
+    min_x = std::min(min_x, ply.points[i].x());
+    EXPECT_NEAR(ply.points[i].z(), 2.0f, 1e-5f);          // world = camera + (1, 0, 0)
+    EXPECT_NEAR(ply.normals[i].z(), -1.0f, 1e-5f);
+    EXPECT_EQ(ply.colors[i][2], 7);
+  }
+  EXPECT_NEAR(min_x, 1.011f, 1e-5f);
+
+  writeMap(dir.file("map.pcd"), map);
+  std::ifstream pcd(dir.file("map.pcd"), std::ios::binary);
+  std::string header((std::istreambuf_iterator<char>(pcd)), std::istreambuf_iterator<char>());
+  EXPECT_NE(header.find("POINTS 100"), std::string::npos);
+  EXPECT_NE(header.find("normal_x"), std::string::npos);
+  EXPECT_THROW(writeMap(dir.file("map.xyz"), map), InputError);
+}
+
+}  // namespace
+}  // namespace amhmvs
