@@ -10,28 +10,17 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/error.h"
+#include "mapping_test_helpers.h"
 #include "test_helpers.h"
 
 namespace amhmvs {
 namespace {
 
-constexpr int kWidth = 32, kHeight = 24;
+constexpr int kWidth = test::kKeyframeWidth, kHeight = test::kKeyframeHeight;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 Keyframe makeKeyframe(int64_t id, const Eigen::Vector3d& position) {
-  Keyframe keyframe;
-  keyframe.id = id;
-  keyframe.stamp = static_cast<double>(id);
-  keyframe.camera.fx = keyframe.camera.fy = 30;
-  keyframe.camera.cx = 15.5;
-  keyframe.camera.cy = 11.5;
-  keyframe.camera.width = kWidth;
-  keyframe.camera.height = kHeight;
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translation() = position;
-  keyframe.setCameraToWorld(pose);
-  keyframe.image = ImageU8(kWidth, kHeight);
-  return keyframe;
+  return test::smallKeyframe(id, static_cast<double>(id), test::poseAt(position));
 }
 
 void expectUsable(const DepthRangeEstimate& estimate) {

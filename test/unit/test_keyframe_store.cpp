@@ -12,33 +12,18 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mapping/voxel_map.h"
+#include "mapping_test_helpers.h"
 #include "test_helpers.h"
 
 namespace amhmvs {
 namespace {
 
-constexpr int kWidth = 32, kHeight = 24;
-
-Eigen::Isometry3d poseAt(const Eigen::Vector3d& position, double yaw_deg = 0) {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180, Eigen::Vector3d::UnitY()).matrix();
-  pose.translation() = position;
-  return pose;
-}
+constexpr int kWidth = test::kKeyframeWidth, kHeight = test::kKeyframeHeight;
+using test::poseAt;
 
 Keyframe makeKeyframe(int64_t id, double stamp, const Eigen::Isometry3d& camera_to_world,
                       int channels = 1) {
-  Keyframe keyframe;
-  keyframe.id = id;
-  keyframe.stamp = stamp;
-  keyframe.camera.fx = keyframe.camera.fy = 30;
-  keyframe.camera.cx = 15.5;
-  keyframe.camera.cy = 11.5;
-  keyframe.camera.width = kWidth;
-  keyframe.camera.height = kHeight;
-  keyframe.setCameraToWorld(camera_to_world);
-  keyframe.image = ImageU8(kWidth, kHeight, channels, static_cast<uint8_t>(id % 251));
-  return keyframe;
+  return test::smallKeyframe(id, stamp, camera_to_world, channels, static_cast<uint8_t>(id % 251));
 }
 
 Keyframe makeKeyframe(int64_t id, double stamp = -1) {

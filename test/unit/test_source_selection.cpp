@@ -10,32 +10,17 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/error.h"
+#include "mapping_test_helpers.h"
 #include "test_helpers.h"
 
 namespace amhmvs {
 namespace {
 
-constexpr int kWidth = 32, kHeight = 24;
-
-Eigen::Isometry3d poseAt(const Eigen::Vector3d& position, double yaw_deg = 0) {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180, Eigen::Vector3d::UnitY()).matrix();
-  pose.translation() = position;
-  return pose;
-}
+constexpr int kWidth = test::kKeyframeWidth, kHeight = test::kKeyframeHeight;
+using test::poseAt;
 
 Keyframe makeKeyframe(int64_t id, const Eigen::Isometry3d& camera_to_world) {
-  Keyframe keyframe;
-  keyframe.id = id;
-  keyframe.stamp = static_cast<double>(id);
-  keyframe.camera.fx = keyframe.camera.fy = 30;
-  keyframe.camera.cx = 15.5;
-  keyframe.camera.cy = 11.5;
-  keyframe.camera.width = kWidth;
-  keyframe.camera.height = kHeight;
-  keyframe.setCameraToWorld(camera_to_world);
-  keyframe.image = ImageU8(kWidth, kHeight);
-  return keyframe;
+  return test::smallKeyframe(id, static_cast<double>(id), camera_to_world);
 }
 
 // Target at the origin looking down +z at a wall of sparse points at z = 3.
