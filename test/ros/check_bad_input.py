@@ -153,7 +153,10 @@ class BadInput(unittest.TestCase):
         self.assertTrue(self.wait_for(lambda: self.diag_int('pose_updates_applied') == 2, timeout=10),
                         str(self.diagnostics))
 
-        time.sleep(2.5)  # one more diagnostics update
+        # The rest of the update is counted in the same callback; wait for a
+        # diagnostics message that shows it rather than for a fixed time.
+        self.wait_for(lambda: self.diagnostics.get('dropped: bad_pose_update') == '1' and
+                      self.diagnostics.get('pose_updates_not_stored') == '1', timeout=10)
         with self.lock:
             diag = dict(self.diagnostics)
         rospy.loginfo('check_bad_input: diagnostics %s', diag)
