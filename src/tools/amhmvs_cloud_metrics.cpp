@@ -14,6 +14,7 @@
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"
 #include "amhmvs_mapping/io/point_cloud_io.h"
+#include "tool_main.h"
 
 namespace {
 
@@ -112,24 +113,5 @@ int run(const std::vector<std::string>& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<std::string> args(argv + 1, argv + argc);
-  for (const std::string& a : args) {
-    if (a == "--help" || a == "-h") {
-      std::cout << kUsage;
-      return 0;
-    }
-  }
-  if (args.empty() || args[0].rfind("--", 0) == 0) {
-    std::cerr << kUsage;
-    return 2;
-  }
-  try {
-    return run(args);
-  } catch (const InputError& e) {
-    std::cerr << "amhmvs_cloud_metrics: error: " << e.what() << "\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "amhmvs_cloud_metrics: failed: " << e.what() << "\n";
-    return 3;
-  }
+  return amhmvs::runToolMain("amhmvs_cloud_metrics", kUsage, argc, argv, 1, true, run);
 }

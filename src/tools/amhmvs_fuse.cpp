@@ -16,6 +16,7 @@
 #include "amhmvs_mapping/io/pfm.h"
 #include "amhmvs_mapping/io/point_cloud_io.h"
 #include "amhmvs_mapping/mapping/fusion.h"
+#include "tool_main.h"
 
 namespace {
 
@@ -193,24 +194,5 @@ int run(const std::vector<std::string>& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<std::string> args(argv + 1, argv + argc);
-  for (const std::string& a : args) {
-    if (a == "--help" || a == "-h") {
-      std::cout << kUsage;
-      return 0;
-    }
-  }
-  if (args.size() < 3) {
-    std::cerr << kUsage;
-    return 2;
-  }
-  try {
-    return run(args);
-  } catch (const InputError& e) {
-    std::cerr << "amhmvs_fuse: error: " << e.what() << "\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "amhmvs_fuse: failed: " << e.what() << "\n";
-    return 3;
-  }
+  return amhmvs::runToolMain("amhmvs_fuse", kUsage, argc, argv, 3, false, run);
 }
