@@ -56,16 +56,25 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
     err << "input_mode '" << c.input_mode << "' is not pose, tf or keyframe; using pose\n";
     c.input_mode = defaults.input_mode;
   }
-  if (!(c.tf_timeout >= 0)) { err << "tf_timeout must be >= 0\n"; c.tf_timeout = defaults.tf_timeout; }
-  if (c.queue_size < 1) { err << "queue_size must be >= 1\n"; c.queue_size = defaults.queue_size; }
-  if (c.sync_queue_size < 1) { err << "sync_queue_size must be >= 1\n"; c.sync_queue_size = defaults.sync_queue_size; }
-  if (!(c.sync_max_interval >= 0)) { err << "sync_max_interval must be >= 0\n"; c.sync_max_interval = defaults.sync_max_interval; }
+  // A bad value is reported and replaced by its default.
+  auto require = [&err](bool ok, const char* problem, auto& value, const auto& fallback) {
+    if (ok) return;
+    err << problem << "\n";
+    value = fallback;
+  };
+  require(c.tf_timeout >= 0, "tf_timeout must be >= 0", c.tf_timeout, defaults.tf_timeout);
+  require(c.queue_size >= 1, "queue_size must be >= 1", c.queue_size, defaults.queue_size);
+  require(c.sync_queue_size >= 1, "sync_queue_size must be >= 1", c.sync_queue_size,
+          defaults.sync_queue_size);
+  require(c.sync_max_interval >= 0, "sync_max_interval must be >= 0", c.sync_max_interval,
+          defaults.sync_max_interval);
   if (!(c.keyframe_min_translation >= 0) || !(c.keyframe_min_rotation_deg >= 0)) {
     err << "keyframe_min_translation and keyframe_min_rotation_deg must be >= 0\n";
     c.keyframe_min_translation = defaults.keyframe_min_translation;
     c.keyframe_min_rotation_deg = defaults.keyframe_min_rotation_deg;
   }
-  if (c.max_keyframes < 1) { err << "max_keyframes must be >= 1\n"; c.max_keyframes = defaults.max_keyframes; }
+  require(c.max_keyframes >= 1, "max_keyframes must be >= 1", c.max_keyframes,
+          defaults.max_keyframes);
   const std::string source_problems = c.sources.validate();
   if (!source_problems.empty()) { err << source_problems; c.sources = defaults.sources; }
   if (!(c.min_depth > 0 && c.max_depth > c.min_depth && std::isfinite(c.max_depth))) {
@@ -79,12 +88,12 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
     err << "backend: " << e.what() << "; using auto\n";
     c.backend = defaults.backend;
   }
-  if (c.max_image_size < 0 || (c.max_image_size > 0 && c.max_image_size < 16)) {
-    err << "max_image_size must be 0 (off) or >= 16\n";
-    c.max_image_size = defaults.max_image_size;
-  }
-  if (!(c.cloud_max_cost > 0)) { err << "cloud_max_cost must be > 0\n"; c.cloud_max_cost = defaults.cloud_max_cost; }
-  if (!(c.diagnostics_period > 0)) { err << "diagnostics_period must be > 0\n"; c.diagnostics_period = defaults.diagnostics_period; }
+  require(c.max_image_size == 0 || c.max_image_size >= 16,
+          "max_image_size must be 0 (off) or >= 16", c.max_image_size, defaults.max_image_size);
+  require(c.cloud_max_cost > 0, "cloud_max_cost must be > 0", c.cloud_max_cost,
+          defaults.cloud_max_cost);
+  require(c.diagnostics_period > 0, "diagnostics_period must be > 0", c.diagnostics_period,
+          defaults.diagnostics_period);
 
   // Estimator options: every entry of the option table, as ~estimator/<name>.
   for (const amhmvs::OptionInfo& option : amhmvs::patchMatchOptionTable()) {
