@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Configures and builds the catkin package (core, CLIs, tests) into build/.
 # CUDA is used when nvcc is found (/usr/local/cuda or PATH); set
-# AMHMVS_CUDA_ARCHITECTURES to limit the GPU targets (CMake syntax).
+# AMHMVS_CUDA_ARCHITECTURES to limit the GPU targets (CMake syntax), or
+# AMHMVS_WITH_CUDA=OFF for a CPU-only build.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 # Debian's catkin and pluginlib call python3 from PATH: it must be the
@@ -10,6 +11,7 @@ export PATH=/usr/bin:/bin:/usr/sbin:/sbin:/usr/local/cuda/bin:$PATH
 build=${AMHMVS_BUILD_DIR:-$here/build}
 mkdir -p "$build"
 args=(-DCMAKE_BUILD_TYPE=Release)
+[ -n "${AMHMVS_WITH_CUDA:-}" ] && args+=(-DAMHMVS_WITH_CUDA="$AMHMVS_WITH_CUDA")
 [ -n "${AMHMVS_CUDA_ARCHITECTURES:-}" ] && args+=(-DAMHMVS_CUDA_ARCHITECTURES="$AMHMVS_CUDA_ARCHITECTURES")
 cmake -S "$here" -B "$build" "${args[@]}" > "$build/configure.log" 2>&1 || { cat "$build/configure.log"; exit 1; }
 grep -E "amhmvs:" "$build/configure.log" || true
