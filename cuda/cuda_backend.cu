@@ -48,20 +48,60 @@ constexpr int kBlockX = 16, kBlockY = 8;
 #define AMHMVS_UPDATE_MIN_BLOCKS 4
 #endif
 
+
+// Reference window samples of the paper's window in shared memory, sample
+// major so that a warp reads consecutive 8-byte words: 36 x 8 B per thread
+// instead of 72 registers.
+constexpr int kBlockThreads = kBlockX * kBlockY;
+struct SharedSamples {
+  WindowSample* first;  // this thread's sample 0
+  __device__ WindowSample& operator[](int i) const { return first[i * kBlockThreads]; }
+};
+
+// Storage of the reference window in the initialisation and update
+// kernels, per window shape.
 template <class Window>
-__global__ void initializeKernel(PatchMatchParams P, GpuSampler sampler, PixelState state) {
+struct UpdateWindowStorage {
+  __device__ static InlineSamples get(int) { return {}; }
+};
+template <>
+struct UpdateWindowStorage<PaperWindow> {
+  __device__ static SharedSamples get(int thread) {
+    constexpr int kSamples = PaperWindow::perAxis() * PaperWindow::perAxis();
+    __shared__ WindowSample samples[kSamples * kBlockThreads];
+    return {samples + thread};
+  }
+};
+
+template <class Window>
+__global__ void __launch_bounds__(kBlockThreads, AMHMVS_UPDATE_MIN_BLOCKS)
+    initializeKernel(PatchMatchParams P, GpuSampler sampler, PixelState state) {
   const int x = blockIdx.x * blockDim.x + threadIdx.x;
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
-  if (x < P.width && y < P.height) initializePixel<Window>(P, sampler, state, x, y);
+  if (x < P.width && y < P.height) {
+    initializePixel<Window>(P, sampler, state, x, y,
+                            UpdateWindowStorage<Window>::get(threadIdx.y * blockDim.x + threadIdx.x));
+  }
 }
 
 // One thread per pixel of `colour`: thread column i handles x = 2 i + parity.
 template <class Window>
-__global__ void __launch_bounds__(kBlockX * kBlockY, AMHMVS_UPDATE_MIN_BLOCKS) updateKernel(PatchMatchParams P, GpuSampler sampler, PixelState state,
+__global__ void __launch_bounds__(kBlockX * kBlockY, AMHMVS_UPDATE_MIN_BLOCKS)
+    updateKernel(PatchMatchParams P, GpuSampler sampler, PixelState state,
                              int iteration, int colour) {
+  // Threads score hypotheses on different views after view selection: the
+  // geometry is read from shared memory (kernel parameters serialise
+  // divergent indices).
+  __shared__ SourceGeometry sources[kMaxSourceViews];
+  const int thread = threadIdx.y * blockDim.x + threadIdx.x;
+  for (int j = thread; j < P.num_sources; j += blockDim.x * blockDim.y) sources[j] = P.sources[j];
+  __syncthreads();
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
   const int x = 2 * (blockIdx.x * blockDim.x + threadIdx.x) + ((y + colour) & 1);
-  if (x < P.width && y < P.height) updatePixel<Window>(P, sampler, state, iteration, x, y);
+  if (x < P.width && y < P.height) {
+    updatePixel<Window>(P, sources, sampler, state, iteration, x, y,
+                        UpdateWindowStorage<Window>::get(thread));
+  }
 }
 
 __global__ void outputKernel(PatchMatchParams P, PixelState state, float* raw_depth,
@@ -155,6 +195,9 @@ DepthMap estimateOnCuda(const PatchMatchOptions& options, const PatchMatchParams
   DeviceBuffer<int8_t> best_view(pixels);
   const PixelState state{planes.get(), costs.get(), selected.get(), best_view.get()};
   const GpuSampler sampler{reference.get(), width, height, sources.object()};
+  DeviceBuffer<float> raw_depth(pixels), depth(pixels), normal(3 * pixels), cost(pixels);
+  cuda::CudaEvent uploaded;
+  uploaded.record();
 
   if (isPaperWindow(P.cost)) {
     runPatchMatch<PaperWindow>(P, sampler, state, options.num_iterations);
@@ -162,7 +205,6 @@ DepthMap estimateOnCuda(const PatchMatchOptions& options, const PatchMatchParams
     runPatchMatch<RuntimeWindow>(P, sampler, state, options.num_iterations);
   }
   const dim3 block(kBlockX, kBlockY);
-  DeviceBuffer<float> raw_depth(pixels), depth(pixels), normal(3 * pixels), cost(pixels);
   outputKernel<<<gridFor(width, height), block>>>(P, state, raw_depth.get(), normal.get(), cost.get());
   AMHMVS_CUDA_CHECK_LAUNCH();
   medianKernel<<<gridFor(width, height), block>>>(width, height, options.median_filter_size,
@@ -181,6 +223,7 @@ DepthMap estimateOnCuda(const PatchMatchOptions& options, const PatchMatchParams
   cost.download(out.cost.data.data());
   stop.record();
   out.milliseconds = stop.millisecondsSince(start);
+  out.compute_milliseconds = stop.millisecondsSince(uploaded);
   return out;
 }
 

@@ -8,6 +8,7 @@
 
 #include <cuda_runtime.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -31,10 +32,10 @@ class LayeredTexture8 {
       const ImageU8& image = *layers[l];
       uint8_t* layer = staging.data() + static_cast<size_t>(l) * width * height;
       for (int y = 0; y < height; ++y) {
-        const int sy = std::min(y, image.height - 1);
-        for (int x = 0; x < width; ++x) {
-          layer[static_cast<size_t>(y) * width + x] = image.at(std::min(x, image.width - 1), sy);
-        }
+        const uint8_t* source_row = &image.at(0, std::min(y, image.height - 1));
+        uint8_t* row = layer + static_cast<size_t>(y) * width;
+        std::copy(source_row, source_row + image.width, row);
+        std::fill(row + image.width, row + width, source_row[image.width - 1]);
       }
     }
     const cudaChannelFormatDesc format = cudaCreateChannelDesc<uint8_t>();

@@ -25,7 +25,7 @@ void runPatchMatch(const PatchMatchParams& P, const CpuSampler& sampler, PixelSt
 #pragma omp parallel for schedule(dynamic, 4)
       for (int y = 0; y < height; ++y) {
         for (int x = (y + colour) & 1; x < width; x += 2) {
-          updatePixel<Window>(P, sampler, state, iteration, x, y);
+          updatePixel<Window>(P, P.sources, sampler, state, iteration, x, y);
         }
       }
     }
@@ -82,6 +82,7 @@ DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams&
   }
   out.milliseconds =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  out.compute_milliseconds = out.milliseconds;
   return out;
 }
 

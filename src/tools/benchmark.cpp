@@ -1,11 +1,15 @@
 // amhmvs_benchmark: time per depth map on real and synthetic scenes.
 //
-// GPU times are CUDA-event times inside the estimator (upload of the images
-// to download of depth, normal and cost), medians of --runs runs after one
-// warm-up. CPU times use steady_clock with the given thread count.
+// GPU times are CUDA-event times inside the estimator, medians of --runs runs
+// after one warm-up: "ms" from the images in device memory to depth, normal
+// and cost in host memory (kernels and download), "with upload ms" from the
+// images in host memory. CPU times use steady_clock with the given thread
+// count (both columns equal).
 //
 // usage: amhmvs_benchmark [DATA_DIR] [--out FILE] [--runs N] [--cpu-threads N] [--quick]
-//                         [--only SCENE]   (e.g. fountain_x0.25, synthetic; for profiling)
+//                         [--only SCENE]   (fountain_x0.25 ... fountain_x1, synthetic,
+//                                           scaling, cpu; for profiling)
+// The scaling rows time the synthetic scene at 4 sizes x 3 source counts.
 // DATA_DIR holds mvsnet/fountain_x0.25, fountain_x0.5, fountain_x1 dense
 // folders with decodable images (see scripts/prepare_gpu_data.py); rows whose
 // folder is missing are skipped.
@@ -35,7 +39,8 @@ struct Row {
   int width, height, sources, iterations;
   Backend backend;
   int threads;
-  double median_ms, min_ms;
+  double median_ms, min_ms;  // images in device memory -> results in host memory
+  double median_total_ms;     // images in host memory -> results in host memory
   double gpu_mib;
 };
 
@@ -53,17 +58,20 @@ Row measure(const std::string& scene, const DepthProblem& problem, Backend backe
   options.num_iterations = iterations;
   const DepthEstimator estimator(options, backend);
   estimator.estimate(problem);  // warm-up: module load, allocation paths
-  std::vector<double> times;
+  std::vector<double> times, totals;
   double gpu_mib = 0;
   for (int r = 0; r < runs; ++r) {
     const DepthMap map = estimator.estimate(problem);
-    times.push_back(map.milliseconds);
+    times.push_back(map.compute_milliseconds);
+    totals.push_back(map.milliseconds);
     gpu_mib = std::max(gpu_mib, map.gpu_memory_bytes / (1024.0 * 1024.0));
   }
   std::sort(times.begin(), times.end());
+  std::sort(totals.begin(), totals.end());
   return {scene, problem.reference_camera.width, problem.reference_camera.height,
           static_cast<int>(problem.source_cameras.size()), iterations, backend,
-          backend == Backend::kCpu ? threads : 0, times[times.size() / 2], times.front(), gpu_mib};
+          backend == Backend::kCpu ? threads : 0, times[times.size() / 2], times.front(),
+          totals[totals.size() / 2], gpu_mib};
 }
 
 }  // namespace
@@ -107,6 +115,17 @@ int main(int argc, char** argv) {
         }
       }
     }
+    if (gpu && (only.empty() || only == "scaling")) {
+      // Time should grow with pixels x sources (the cost matrix dominates).
+      const int sizes[][2] = {{320, 240}, {640, 480}, {1280, 960}, {2560, 1920}};
+      for (const auto& size : sizes) {
+        for (int sources : {2, 4, 8}) {
+          const SyntheticProblem p = makeSyntheticProblem(size[0], size[1], sources);
+          rows.push_back(measure("scaling", p.problem, Backend::kCuda, 6, runs, 0));
+        }
+      }
+      std::fprintf(stderr, "scaling done\n");
+    }
     if (only.empty() || only == "cpu") {
       const SyntheticProblem qvga = makeSyntheticProblem(320, 240, 4);
       rows.push_back(measure("synthetic", qvga.problem, Backend::kCpu, 6, quick ? 1 : runs, cpu_threads));
@@ -118,14 +137,16 @@ int main(int argc, char** argv) {
 
   std::ostringstream table;
   table << "device: " << (gpu ? device : "none (CPU only)") << "\n\n"
-        << "| scene | size | sources | iterations | backend | median ms | min ms | GPU MiB |\n"
-        << "|---|---|---|---|---|---|---|---|\n";
+        << "| scene | size | sources | iterations | backend | median ms | min ms | "
+           "with upload ms | ns / (pixel x source x iteration) | GPU MiB |\n"
+        << "|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Row& r : rows) {
-    char line[256];
-    std::snprintf(line, sizeof(line), "| %s | %dx%d | %d | %d | %s%s | %.1f | %.1f | %.0f |\n",
+    const double work = static_cast<double>(r.width) * r.height * r.sources * r.iterations;
+    char line[320];
+    std::snprintf(line, sizeof(line), "| %s | %dx%d | %d | %d | %s%s | %.1f | %.1f | %.1f | %.3f | %.0f |\n",
                   r.scene.c_str(), r.width, r.height, r.sources, r.iterations, backendName(r.backend),
                   r.threads ? (" (" + std::to_string(r.threads) + " threads)").c_str() : "",
-                  r.median_ms, r.min_ms, r.gpu_mib);
+                  r.median_ms, r.min_ms, r.median_total_ms, 1e6 * r.median_ms / work, r.gpu_mib);
     table << line;
   }
   std::printf("%s", table.str().c_str());

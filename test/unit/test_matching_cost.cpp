@@ -222,7 +222,7 @@ TEST_F(MatchingCost, ParamsAreThePapersWindow) {
   computeReferenceWindow<PaperWindow>(sampler_, params_.cost, 40, 30, &win);
   EXPECT_EQ(win.count, 36);  // 6 x 6 samples
   double sum = 0;
-  for (int i = 0; i < win.count; ++i) sum += win.weight[i];
+  for (int i = 0; i < win.count; ++i) sum += win.sample[i].weight;
   EXPECT_NEAR(sum, 1.0, 1e-6);
 }
 

@@ -13,7 +13,7 @@ namespace amhmvs {
 namespace mvs {
 namespace {
 
-constexpr int kStride = 32;  // the row stride updatePixel() uses
+constexpr int kStride = 32;  // any row stride >= the number of views
 
 // The paper's parameters as the estimator builds them from the default options.
 SelectionParams paperParams() {

@@ -41,6 +41,9 @@ struct DepthMap {
   ImageF cost;    // aggregated matching cost in [0, 2]
   Backend backend = Backend::kCpu;
   double milliseconds = 0;  // estimator time (upload to download)
+  // CUDA: the part of `milliseconds` after the images are in device memory
+  // (kernels and download of depth, normal and cost); equal to it on the CPU.
+  double compute_milliseconds = 0;
   size_t gpu_memory_bytes = 0;  // device memory taken by this estimate (CUDA)
 };
 

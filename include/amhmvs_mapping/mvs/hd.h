@@ -31,6 +31,22 @@ AMHMVS_HD Vec3 cross(Vec3 a, Vec3 b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
 AMHMVS_HD float rsqrtf_hd(float x) { return 1.0f / sqrtf(x); }
+
+// 1 / x, correctly rounded for normal x (as the CPU's division). On the GPU,
+// nvcc's IEEE division carries a branch to a slow path for extreme exponents;
+// in the window loop that branch keeps texture fetches from being issued
+// ahead of their use. This is the same hardware estimate and Newton step
+// without the branch (exact away from denormals and overflow).
+AMHMVS_HD float reciprocal(float x) {
+#if defined(__CUDA_ARCH__)
+  float r;
+  asm("rcp.approx.ftz.f32 %0, %1;" : "=f"(r) : "f"(x));
+  const float e = fmaf(-x, r, 1.0f);
+  return fmaf(r, e, r);
+#else
+  return 1.0f / x;
+#endif
+}
 AMHMVS_HD float nanf_hd() { return nanf(""); }
 
 AMHMVS_HD Vec3 normalized(Vec3 a) {

@@ -65,17 +65,34 @@ struct SourceGeometry {
   float width, height;  // in pixels
 };
 
-struct ReferenceWindow {
-  int count;                      // samples in the window
-  float weight[kMaxWindowSamples];  // normalised: sum = 1
-  float value[kMaxWindowSamples];   // intensity minus centre intensity
-  float mean, variance;           // weighted moments of `value`
-  bool textured;                  // variance >= kMinVariance
+// One reference window sample: its normalised weight and the weight times
+// the centred intensity, side by side so one 8-byte load fetches both.
+struct WindowSample {
+  float weight;          // w_i / sum w (sum = 1)
+  float weighted_value;  // w_i (I_i - I_c)
 };
 
-template <class Window, class Sampler>
+// Where a window's samples live. By default inside the window (registers or
+// the stack); the CUDA backend can hand in a slice of shared memory instead
+// (see cuda_backend.cu), which frees registers for more resident warps.
+struct InlineSamples {
+  WindowSample s[kMaxWindowSamples];
+  AMHMVS_HD WindowSample& operator[](int i) { return s[i]; }
+  AMHMVS_HD const WindowSample& operator[](int i) const { return s[i]; }
+};
+
+template <class Samples>
+struct ReferenceWindowT {
+  int count;                             // samples in the window
+  Samples sample;
+  float mean, variance;                  // weighted moments of I_i - I_c
+  bool textured;                         // variance >= kMinVariance
+};
+using ReferenceWindow = ReferenceWindowT<InlineSamples>;
+
+template <class Window, class Sampler, class Samples>
 AMHMVS_HD void computeReferenceWindow(const Sampler& sampler, const CostParams& p, int x, int y,
-                                      ReferenceWindow* win) {
+                                      ReferenceWindowT<Samples>* win) {
   const Window shape(p);
   const float centre = sampler.reference(x, y);
   const float color_scale = 1.0f / (2.0f * p.sigma_color * p.sigma_color);
@@ -96,8 +113,8 @@ AMHMVS_HD void computeReferenceWindow(const Sampler& sampler, const CostParams& 
       const float w = inside ? expf(-fabsf(v) * color_scale -
                                     sqrtf(static_cast<float>(dx * dx + dy * dy)) * spatial_scale)
                              : 0.0f;
-      win->weight[n] = w;
-      win->value[n] = v;
+      // weighted_value holds the plain value until the weights are normalised.
+      win->sample[n] = {w, v};
       weight_sum += w;
       ++n;
     }
@@ -106,14 +123,15 @@ AMHMVS_HD void computeReferenceWindow(const Sampler& sampler, const CostParams& 
   float mean = 0.0f;
   AMHMVS_UNROLL
   for (int i = 0; i < n; ++i) {
-    win->weight[i] /= weight_sum;
-    mean += win->weight[i] * win->value[i];
+    win->sample[i].weight /= weight_sum;
+    mean += win->sample[i].weight * win->sample[i].weighted_value;
   }
   float variance = 0.0f;  // two-pass: exact for flat windows
   AMHMVS_UNROLL
   for (int i = 0; i < n; ++i) {
-    const float c = win->value[i] - mean;
-    variance += win->weight[i] * c * c;
+    const float c = win->sample[i].weighted_value - mean;
+    variance += win->sample[i].weight * c * c;
+    win->sample[i].weighted_value *= win->sample[i].weight;
   }
   win->mean = mean;
   win->variance = variance;
@@ -130,9 +148,9 @@ AMHMVS_HD Vec3 planeTerm(const Intrinsics& k, const Plane& plane) {
 // Cost of hypothesis `plane` at reference pixel (x, y) against source `view`.
 // kMaxCost when either window is textureless, when the window centre maps
 // outside the source image, or when the point is behind the source camera.
-template <class Window, class Sampler>
+template <class Window, class Sampler, class Samples>
 AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
-                             const ReferenceWindow& win, const SourceGeometry& g, int view,
+                             const ReferenceWindowT<Samples>& win, const SourceGeometry& g, int view,
                              Vec3 q, int x, int y) {
   if (!win.textured) return kMaxCost;
   const Window shape(p);
@@ -163,12 +181,12 @@ AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
     AMHMVS_UNROLL
     for (int ix = 0; ix < shape.perAxis(); ++ix) {
       const int i = iy * shape.perAxis() + ix;
-      const float inv_z = 1.0f / hz;
+      const float inv_z = reciprocal(hz);
       const float s = source.sample(hx * inv_z, hy * inv_z) - shift;
-      const float w = win.weight[i];
-      sum_s += w * s;
-      sum_ss += w * s * s;
-      sum_rs += w * win.value[i] * s;
+      const WindowSample r = win.sample[i];
+      sum_s += r.weight * s;
+      sum_ss += r.weight * s * s;
+      sum_rs += r.weighted_value * s;
       hx += step_x;
       hy += step_y;
       hz += step_z;

@@ -99,16 +99,17 @@ AMHMVS_HD Vec3 perturbNormal(const PatchMatchParams& P, Vec3 n, Vec3 ray, float 
 // Random plane (uniform depth in range, random normal facing the camera) and
 // its initial cost: the heuristic aggregation over all views (no selection
 // exists yet).
-template <class Window, class Sampler>
+template <class Window, class Sampler, class Samples = InlineSamples>
 AMHMVS_HD void initializePixel(const PatchMatchParams& P, const Sampler& sampler,
-                               PixelState state, int x, int y) {
+                               PixelState state, int x, int y, Samples samples = Samples()) {
   const int index = y * P.width + x;
   PixelRandom rng(P.seed, static_cast<uint32_t>(index), kStreamInit);
   const Vec3 ray = pixelRay(P.K, static_cast<float>(x), static_cast<float>(y));
   const float depth = rng.uniform(P.depth_min, P.depth_max);
   const Plane plane = planeFromDepthNormal(randomNormal(P, ray, &rng), depth, ray);
 
-  ReferenceWindow win;
+  ReferenceWindowT<Samples> win;
+  win.sample = samples;
   computeReferenceWindow<Window>(sampler, P.cost, x, y, &win);
   const Vec3 q = planeTerm(P.K, plane);
   float costs[32];
@@ -125,17 +126,34 @@ AMHMVS_HD void initializePixel(const PatchMatchParams& P, const Sampler& sampler
 
 // --- One checkerboard update ------------------------------------------------
 
-// Scores `plane` at the pixel with the pixel's view weights: costs of views
-// that carry weight only (all views in heuristic mode).
-template <class Window, class Sampler>
-AMHMVS_HD float scoreHypothesis(const PatchMatchParams& P, const Sampler& sampler,
-                                const ReferenceWindow& win, const ViewWeights& weights,
+// Views a hypothesis is scored on: those with weight (all in heuristic mode),
+// ascending. A compact list keeps the threads of a GPU warp in step: each
+// loops over its own few views instead of all threads over every view that
+// any of them needs.
+struct ViewList {
+  int count;
+  int8_t view[32];
+};
+
+AMHMVS_HD void listNeededViews(const ViewWeights& weights, int num_views, ViewList* list) {
+  list->count = 0;
+  for (int j = 0; j < num_views; ++j) {
+    if (needsView(weights, j)) list->view[list->count++] = static_cast<int8_t>(j);
+  }
+}
+
+// Scores `plane` at the pixel with the pixel's view weights (eq. 14): costs
+// of the listed views only; the others carry no weight and are not read.
+template <class Window, class Sampler, class Samples>
+AMHMVS_HD float scoreHypothesis(const PatchMatchParams& P, const SourceGeometry* sources,
+                                const Sampler& sampler, const ReferenceWindowT<Samples>& win,
+                                const ViewWeights& weights, const ViewList& views,
                                 const Plane& plane, int x, int y) {
   const Vec3 q = planeTerm(P.K, plane);
   float costs[32];
-  for (int j = 0; j < P.num_sources; ++j) {
-    costs[j] = needsView(weights, j) ? matchingCost<Window>(sampler, P.cost, win, P.sources[j], j, q, x, y)
-                                     : kMaxCost;
+  for (int k = 0; k < views.count; ++k) {
+    const int j = views.view[k];
+    costs[j] = matchingCost<Window>(sampler, P.cost, win, sources[j], j, q, x, y);
   }
   return aggregateCost(P.selection, weights, costs, P.num_sources);
 }
@@ -166,16 +184,9 @@ AMHMVS_HD int propagateCandidates(const PatchMatchParams& P, PixelState state, i
   return count;
 }
 
-// Scoring a plane twice gives the same costs, so a duplicate's costs can be
-// copied. That saves time on the CPU; on the GPU the threads of a warp run in
-// lock step, so one thread skipping saves nothing and the check costs
-// registers. The results are identical either way.
-#if defined(__CUDA_ARCH__)
-constexpr bool kSkipDuplicatePlanes = false;
-#else
-constexpr bool kSkipDuplicatePlanes = true;
-#endif
-
+// Scoring a plane twice gives the same costs. Propagation copies planes
+// verbatim, so converged areas offer the same plane from several regions:
+// each distinct plane is scored once and its row copied to the duplicates.
 AMHMVS_HD bool samePlane(const Plane& a, const Plane& b) {
   return a.n.x == b.n.x && a.n.y == b.n.y && a.n.z == b.n.z && a.d == b.d;
 }
@@ -188,33 +199,54 @@ AMHMVS_HD int firstEqualPlane(const Plane* planes, int i) {
   return i;
 }
 
-template <class Window, class Sampler>
-AMHMVS_HD void updatePixel(const PatchMatchParams& P, const Sampler& sampler, PixelState state,
-                           int iteration, int x, int y) {
+// Cost matrix of eq. 8, `rows` x P.num_sources, row-major with stride
+// P.num_sources: every hypothesis against every source view.
+template <class Window, class Sampler, class Samples>
+AMHMVS_HD void costMatrix(const PatchMatchParams& P, const SourceGeometry* sources,
+                          const Sampler& sampler, const ReferenceWindowT<Samples>& win,
+                          const Plane* hypotheses, int rows, int x, int y, float* matrix) {
+  const int n = P.num_sources;
+  int first[kNumRegions];
+  int distinct[kNumRegions];
+  int num_distinct = 0;
+  for (int i = 0; i < rows; ++i) {
+    first[i] = firstEqualPlane(hypotheses, i);
+    if (first[i] == i) distinct[num_distinct++] = i;
+  }
+  for (int k = 0; k < num_distinct; ++k) {
+    const int i = distinct[k];
+    const Vec3 q = planeTerm(P.K, hypotheses[i]);
+    for (int j = 0; j < n; ++j) {
+      matrix[i * n + j] = matchingCost<Window>(sampler, P.cost, win, sources[j], j, q, x, y);
+    }
+  }
+  for (int i = 0; i < rows; ++i) {
+    if (first[i] == i) continue;
+    for (int j = 0; j < n; ++j) matrix[i * n + j] = matrix[first[i] * n + j];
+  }
+}
+
+// `sources` is P.sources or a copy of it in faster memory, `samples` the
+// storage of the reference window (both: GPU shared memory, see
+// cuda_backend.cu).
+template <class Window, class Sampler, class Samples = InlineSamples>
+AMHMVS_HD void updatePixel(const PatchMatchParams& P, const SourceGeometry* sources,
+                           const Sampler& sampler, PixelState state, int iteration, int x,
+                           int y, Samples samples = Samples()) {
   const int index = y * P.width + x;
+  const int n = P.num_sources;
   const Vec3 ray = pixelRay(P.K, static_cast<float>(x), static_cast<float>(y));
-  ReferenceWindow win;
+  ReferenceWindowT<Samples> win;
+  win.sample = samples;
   computeReferenceWindow<Window>(sampler, P.cost, x, y, &win);
   if (!win.textured) return;  // nothing can be scored here: keep the state
 
-  // Cost matrix of the propagated hypotheses (eq. 8); one spare slot for the
-  // current plane.
+  // Propagated hypotheses and their cost matrix (eq. 8); one spare slot for
+  // the current plane.
   Plane hypotheses[kNumRegions + 1];
   const int rows = propagateCandidates(P, state, x, y, ray, hypotheses);
   float matrix[kNumRegions * 32];
-  for (int i = 0; i < rows; ++i) {
-    // Propagation copies planes verbatim, so converged areas offer the same
-    // plane from several regions: score each distinct plane once.
-    const int same = kSkipDuplicatePlanes ? firstEqualPlane(hypotheses, i) : i;
-    if (same < i) {
-      for (int j = 0; j < P.num_sources; ++j) matrix[i * 32 + j] = matrix[same * 32 + j];
-      continue;
-    }
-    const Vec3 q = planeTerm(P.K, hypotheses[i]);
-    for (int j = 0; j < P.num_sources; ++j) {
-      matrix[i * 32 + j] = matchingCost<Window>(sampler, P.cost, win, P.sources[j], j, q, x, y);
-    }
-  }
+  costMatrix<Window>(P, sources, sampler, win, hypotheses, rows, x, y, matrix);
 
   // View weights (eqs. 9-13), or the heuristic aggregation.
   ViewWeights weights;
@@ -223,19 +255,22 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const Sampler& sampler, Pi
     weights.selected = 0;
     weights.best_view = kNoView;
   } else {
-    jointViewSelection(P.selection, matrix, rows, 32, P.num_sources, iteration,
-                       state.selected[index], state.best_view[index], &weights);
+    jointViewSelection(P.selection, matrix, rows, n, n, iteration, state.selected[index],
+                       state.best_view[index], &weights);
   }
+  ViewList views;
+  listNeededViews(weights, n, &views);
 
   // Current plane, re-scored with this pass's weights, against the best
   // propagated hypothesis (eq. 14).
   Plane plane = state.plane[index];
   hypotheses[rows] = plane;
-  const int same = kSkipDuplicatePlanes ? firstEqualPlane(hypotheses, rows) : rows;
-  float cost = same < rows ? aggregateCost(P.selection, weights, &matrix[same * 32], P.num_sources)
-                           : scoreHypothesis<Window>(P, sampler, win, weights, plane, x, y);
+  const int same = firstEqualPlane(hypotheses, rows);
+  float cost = same < rows
+                   ? aggregateCost(P.selection, weights, &matrix[same * n], n)
+                   : scoreHypothesis<Window>(P, sources, sampler, win, weights, views, plane, x, y);
   for (int i = 0; i < rows; ++i) {
-    const float c = aggregateCost(P.selection, weights, &matrix[i * 32], P.num_sources);
+    const float c = aggregateCost(P.selection, weights, &matrix[i * n], n);
     if (c < cost) {
       cost = c;
       plane = hypotheses[i];
@@ -249,7 +284,8 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const Sampler& sampler, Pi
     const Plane candidate = planeFromDepthNormal(candidate_normal, candidate_depth, ray);
     float d;
     if (!acceptableHypothesis(P, candidate, ray, &d)) return;
-    const float c = scoreHypothesis<Window>(P, sampler, win, weights, candidate, x, y);
+    const float c =
+        scoreHypothesis<Window>(P, sources, sampler, win, weights, views, candidate, x, y);
     if (c < cost) {
       cost = c;
       plane = candidate;
