@@ -12,4 +12,10 @@ namespace amhmvs {
 std::vector<float> sampleTextureOnGpu(const ImageU8& image, const std::vector<float>& xs,
                                       const std::vector<float>& ys);
 
+// Peak bilinear fetch rate of the device (fetches per second) on an 8-bit
+// layered texture with cache-resident coordinates: the floor the estimator's
+// window loop is measured against. Median of `runs` timed launches (CUDA
+// events) after a warm-up.
+double measureBilinearFetchRate(int runs = 5);
+
 }  // namespace amhmvs
