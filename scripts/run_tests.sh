@@ -48,7 +48,8 @@ set -e
 # ROS tests: the gtest of the nodelet's message conversions, then rostests,
 # each with its own roscore: the fountain bag through the nodelet loaded into
 # a manager (pose topic) and through the standalone node (tf), the temple and
-# ICL bags (map in the object's box; plumbing), and bad input.
+# ICL bags (map in the object's box; plumbing), keyframe mode with the
+# services and a loop closure, a missing transform, and bad input.
 echo "== ROS tests (message conversions; rostest) =="
 ros_results=$build/test_results/ros
 rm -rf "$ros_results"
@@ -70,6 +71,8 @@ if [ -f "$bag" ]; then
              "fountain_standalone_tf replay_fountain.test standalone:=true input_mode:=tf" \
              "temple_map replay_map.test scene:=temple" \
              "icl_plumbing replay_map.test scene:=icl" \
+             "keyframe_services keyframe_services.test" \
+             "missing_tf missing_tf.test" \
              "bad_input bad_input.test"; do
     read -r name file args <<< "$run"
     dir=$ros_results/$name
@@ -89,7 +92,7 @@ if [ -f "$bag" ]; then
   done
 else
   echo "rostest: skipped, no bag at $bag"
-  ros_runs+=(skipped skipped skipped skipped skipped)
+  ros_runs+=(skipped skipped skipped skipped skipped skipped skipped)
 fi
 
 python3 - "$results" "${ros_runs[@]}" <<'PY'

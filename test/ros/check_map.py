@@ -12,15 +12,14 @@ real geometry outside the object's box. At most ~max_fraction_elsewhere of
 the points (default 0) may be elsewhere."""
 import math
 import sys
-import threading
-import time
 import unittest
 
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import CameraInfo, Image, PointCloud2
 import sensor_msgs.point_cloud2 as pc2
+
+from node_watch import NodeWatch
 
 
 class MapReplay(unittest.TestCase):
@@ -36,48 +35,22 @@ class MapReplay(unittest.TestCase):
         cls.support_axis = rospy.get_param('~support_plane_axis', -1)  # 0 x, 1 y, 2 z; -1 none
         cls.max_fraction_elsewhere = rospy.get_param('~max_fraction_elsewhere', 0.0)
         cls.min_map_points = rospy.get_param('~min_map_points', 100)
-        cls.lock = threading.Lock()
-        cls.images, cls.depth, cls.info, cls.clouds, cls.maps = [], [], [], [], []
-        cls.diagnostics = {}
-        for topic, kind, store in ((rospy.get_param('~image_topic', '/camera/image_raw'), Image, cls.images),
-                                   (ns + '/depth/image', Image, cls.depth),
-                                   (ns + '/depth/camera_info', CameraInfo, cls.info),
-                                   (ns + '/keyframe_cloud', PointCloud2, cls.clouds),
-                                   (ns + '/map', PointCloud2, cls.maps)):
-            rospy.Subscriber(topic, kind, cls._append, callback_args=store, queue_size=50, buff_size=1 << 26)
-        rospy.Subscriber('/diagnostics', DiagnosticArray, cls._diag)
+        cls.watch = watch = NodeWatch(rospy.get_param('~node', '/amhmvs/mapping'))
+        cls.images = watch.record(rospy.get_param('~image_topic', '/camera/image_raw'), Image)
+        cls.depth = watch.record(ns + '/depth/image', Image)
+        cls.info = watch.record(ns + '/depth/camera_info', CameraInfo)
+        cls.clouds = watch.record(ns + '/keyframe_cloud', PointCloud2)
+        cls.maps = watch.record(ns + '/map', PointCloud2)
 
         def processed():
-            d = cls.diagnostics
-            return int(d.get('depth_maps', 0)) + int(d.get('keyframes_without_sources', 0)) >= cls.expected \
-                and d.get('queued') == '0'
-        cls.done = cls.wait_for(processed, rospy.get_param('~timeout', 240.0))
+            return watch.count('depth_maps') + watch.count('keyframes_without_sources') >= cls.expected \
+                and watch.diagnostics.get('queued') == '0'
+        cls.done = watch.wait_for(processed, rospy.get_param('~timeout', 240.0))
         maps_then = len(cls.maps)
-        cls.wait_for(lambda: len(cls.maps) > maps_then, 10.0)  # the map after the last keyframe
+        watch.wait_for(lambda: len(cls.maps) > maps_then, 10.0)  # the map after the last keyframe
+        cls.diagnostics = watch.diagnostics
         rospy.loginfo('check_map: %d images, %d depth, %d clouds, %d maps; diagnostics %s', len(cls.images),
                       len(cls.depth), len(cls.clouds), len(cls.maps), cls.diagnostics)
-
-    @classmethod
-    def _append(cls, msg, store):
-        with cls.lock:
-            store.append(msg)
-
-    @classmethod
-    def _diag(cls, msg):
-        for status in msg.status:
-            if 'depth estimation' in status.name:
-                with cls.lock:
-                    cls.diagnostics = {kv.key: kv.value for kv in status.values}
-
-    @classmethod
-    def wait_for(cls, predicate, timeout):
-        deadline = time.time() + timeout  # wall clock: simulated time stops with the bag
-        while time.time() < deadline:
-            with cls.lock:
-                if predicate():
-                    return True
-            time.sleep(0.2)
-        return False
 
     def test_01_all_keyframes_processed_nothing_dropped(self):
         self.assertTrue(self.done, str(self.diagnostics))
