@@ -9,7 +9,9 @@
 #include <tf2/exceptions.h>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mapping/fallback_estimator.h"
 #include "amhmvs_mapping/mapping/map_export.h"
+#include "amhmvs_mapping/mapping/undistortion.h"
 #include "amhmvs_mapping/ros/keyframe_markers.h"
 #include "amhmvs_mapping/ros/ros_conversions.h"
 
@@ -19,6 +21,8 @@ namespace {
 constexpr double kReportPeriod = 5.0;  // seconds between reports of one drop reason
 // Frusta drawn to this fraction of the scene depth: visible, not cluttering.
 constexpr double kFrustumDepthFraction = 0.15;
+// GPU failures in a row before every keyframe goes to the CPU.
+constexpr int kSwitchToCpuAfter = 3;
 }
 
 MappingNodelet::~MappingNodelet() {
@@ -325,10 +329,32 @@ void MappingNodelet::workerLoop() {
     backend_name_ = amhmvs::backendName(estimator_->backend());
   }
   NODELET_INFO("depth estimation backend: %s", amhmvs::backendName(estimator_->backend()));
+  // GPU failures: the keyframe reruns on the CPU; after kSwitchToCpuAfter
+  // failures in a row every keyframe does. The CPU has no fallback.
+  amhmvs::EstimateFunction cpu;
+  if (estimator_->backend() != amhmvs::Backend::kCpu) {
+    cpu = [this](const amhmvs::DepthProblem& problem) {
+      if (!cpu_estimator_) cpu_estimator_.reset(new amhmvs::DepthEstimator(config_.estimator, amhmvs::Backend::kCpu));
+      return cpu_estimator_->estimate(problem);
+    };
+  }
+  auto fallback = std::make_shared<amhmvs::FallbackEstimator>(
+      [this](const amhmvs::DepthProblem& problem) { return estimator_->estimate(problem); }, cpu,
+      kSwitchToCpuAfter, [this](const std::string& line) {
+        NODELET_ERROR_THROTTLE(kReportPeriod, "%s backend: %s", amhmvs::backendName(estimator_->backend()),
+                               line.c_str());
+        count("cpu_fallbacks");
+      });
   {
     std::lock_guard<std::mutex> lock(mapper_mutex_);
-    mapper_.reset(new amhmvs::OnlineMapper(
-        config_.mapper, [this](const amhmvs::DepthProblem& problem) { return estimate(problem); }));
+    mapper_.reset(new amhmvs::OnlineMapper(config_.mapper, [this, fallback](const amhmvs::DepthProblem& problem) {
+      amhmvs::DepthMap map = (*fallback)(problem);
+      if (fallback->switched()) {
+        std::lock_guard<std::mutex> stats(stats_mutex_);
+        backend_name_ = std::string(amhmvs::backendName(estimator_->backend())) + " failed, now cpu";
+      }
+      return map;
+    }));
   }
   publishMap(true);  // an empty map, so that latched subscribers see the frame
 
@@ -372,13 +398,14 @@ amhmvs::Keyframe MappingNodelet::toKeyframe(const Frame& frame) const {
   keyframe.id = frame.id;
   keyframe.stamp = frame.stamp.toSec();
   std::string problem = imageFromMsg(*frame.image, &keyframe.image);
-  bool distorted = false;
   if (problem.empty())
     problem = cameraFromMsg(*frame.info, keyframe.image.width, keyframe.image.height, frame.camera_to_world,
-                            &keyframe.camera, &distorted);
+                            &keyframe.camera);
+  amhmvs::Distortion distortion;
+  if (problem.empty()) problem = amhmvs::parseDistortion(frame.info->distortion_model, frame.info->D, &distortion);
   if (!problem.empty()) throw amhmvs::InputError(problem);
-  if (distorted)
-    NODELET_WARN_ONCE("camera_info has non-zero distortion coefficients: images are used without undistortion");
+  // Undistorted to the pinhole with the same K (what depth/camera_info says).
+  if (!distortion.isZero()) keyframe.image = amhmvs::undistortImage(keyframe.image, keyframe.camera, distortion);
   if (config_.max_image_size > 0 && std::max(keyframe.image.width, keyframe.image.height) > config_.max_image_size) {
     const double scale = static_cast<double>(config_.max_image_size) /
                          std::max(keyframe.image.width, keyframe.image.height);
@@ -508,19 +535,6 @@ void MappingNodelet::applyPoseUpdates(std::map<int64_t, Eigen::Isometry3d> updat
   std::lock_guard<std::mutex> lock(stats_mutex_);
   counts_["pose_updates_applied"] += applied;
   if (not_stored > 0) counts_["pose_updates_not_stored"] += not_stored;
-}
-
-amhmvs::DepthMap MappingNodelet::estimate(const amhmvs::DepthProblem& problem) {
-  try {
-    return estimator_->estimate(problem);
-  } catch (const amhmvs::BackendError& e) {
-    if (estimator_->backend() == amhmvs::Backend::kCpu) throw;
-    NODELET_ERROR_THROTTLE(kReportPeriod, "%s backend failed (%s): this keyframe falls back to the CPU",
-                           amhmvs::backendName(estimator_->backend()), e.what());
-    count("cpu_fallbacks");
-  }
-  if (!cpu_estimator_) cpu_estimator_.reset(new amhmvs::DepthEstimator(config_.estimator, amhmvs::Backend::kCpu));
-  return cpu_estimator_->estimate(problem);
 }
 
 bool MappingNodelet::saveMapService(amhmvs_mapping::SaveMap::Request& req, amhmvs_mapping::SaveMap::Response& res) {

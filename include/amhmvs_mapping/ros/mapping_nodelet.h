@@ -113,9 +113,6 @@ class MappingNodelet : public nodelet::Nodelet {
   void process(const Frame& frame);
   void publishKeyframe(const Frame& frame, const amhmvs::KeyframeResult& result);
   void applyPoseUpdates(std::map<int64_t, Eigen::Isometry3d> updates);
-  // The configured backend, on a BackendError the CPU for this keyframe;
-  // throws when that fails too.
-  amhmvs::DepthMap estimate(const amhmvs::DepthProblem& problem);
   // Publishes the global map when it changed or `republish` (the rate).
   void publishMap(bool republish);
 
