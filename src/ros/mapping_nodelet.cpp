@@ -13,6 +13,7 @@
 #include "amhmvs_mapping/mapping/map_export.h"
 #include "amhmvs_mapping/mapping/undistortion.h"
 #include "amhmvs_mapping/ros/keyframe_markers.h"
+#include "amhmvs_mapping/ros/mapping_tunables.h"
 #include "amhmvs_mapping/ros/ros_conversions.h"
 
 namespace amhmvs_mapping {
@@ -75,6 +76,14 @@ void MappingNodelet::onInit() {
   // Wall timer: simulated time stops when a bag ends, the worker may not.
   diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(config_.diagnostics_period),
                                           [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+
+  // Runtime tunables, starting from the loaded parameters.
+  reconfigured_ = config_;
+  reconfigure_server_.reset(new dynamic_reconfigure::Server<MappingTunablesConfig>(reconfigure_mutex_, pnh));
+  MappingTunablesConfig initial = tunablesFrom(config_);
+  reconfigure_server_->updateConfig(initial);
+  reconfigure_server_->setCallback(
+      [this](MappingTunablesConfig& tunables, uint32_t level) { reconfigure(tunables, level); });
 
   // Worker (creates the estimator: choosing the backend may take a while).
   worker_ = std::thread(&MappingNodelet::workerLoop, this);
@@ -360,14 +369,18 @@ void MappingNodelet::workerLoop() {
 
   const std::chrono::duration<double> map_period(config_.map_publish_period);
   std::map<int64_t, Eigen::Isometry3d> updates;
+  std::unique_ptr<MappingConfig> next_config;
   while (true) {
     Frame frame;
     bool have_frame = false;
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
       // Wakes at the map rate at the latest, to republish it.
-      queue_cv_.wait_for(lock, map_period, [this] { return stop_ || !queue_.empty() || !pose_updates_.empty(); });
+      queue_cv_.wait_for(lock, map_period, [this] {
+        return stop_ || !queue_.empty() || !pose_updates_.empty() || pending_config_;
+      });
       if (stop_) break;
+      next_config.swap(pending_config_);
       updates.swap(pose_updates_);
       if (!queue_.empty()) {
         frame = std::move(queue_.front());
@@ -375,6 +388,8 @@ void MappingNodelet::workerLoop() {
         have_frame = true;
       }
     }
+    if (next_config) applyReconfiguration(*next_config);
+    next_config.reset();
     if (reset_requested_.exchange(false)) {
       std::lock_guard<std::mutex> lock(mapper_mutex_);
       mapper_->reset();
@@ -551,6 +566,40 @@ bool MappingNodelet::saveMapService(amhmvs_mapping::SaveMap::Request& req, amhmv
     NODELET_ERROR("%s", res.message.c_str());
   }
   return true;
+}
+
+void MappingNodelet::applyReconfiguration(const MappingConfig& next) {
+  try {
+    const std::string problems = next.estimator.validate();
+    if (!problems.empty()) throw amhmvs::InputError("estimator options:\n" + problems);
+    {
+      std::lock_guard<std::mutex> lock(mapper_mutex_);
+      mapper_->setOptions(next.mapper);  // a new voxel size rebuilds the map
+    }
+    estimator_.reset(new amhmvs::DepthEstimator(next.estimator, estimator_->backend()));
+    cpu_estimator_.reset();
+    config_.estimator = next.estimator;
+    config_.mapper = next.mapper;
+    count("reconfigurations");
+    NODELET_INFO("reconfigured: %d iterations, up to %d sources, voxel size %.3f m", next.estimator.num_iterations,
+                 next.mapper.sources.max_sources, next.mapper.map.leaf_size);
+  } catch (const std::exception& e) {
+    drop("bad_reconfiguration", e.what());
+  }
+}
+
+void MappingNodelet::reconfigure(MappingTunablesConfig& tunables, uint32_t /*level*/) {
+  applyTunables(tunables, &reconfigured_);
+  {
+    std::lock_guard<std::mutex> lock(input_mutex_);
+    config_.keyframe_min_translation = reconfigured_.keyframe_min_translation;
+    config_.keyframe_min_rotation_deg = reconfigured_.keyframe_min_rotation_deg;
+  }
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    pending_config_.reset(new MappingConfig(reconfigured_));
+  }
+  queue_cv_.notify_one();
 }
 
 // -------------------------------------------------------------- services ---

@@ -3,13 +3,15 @@
 fountain frames as amhmvs_mapping/Keyframe with their sparse points), then the
 services and loop closure: ~save_map to PLY and PCD (and a refused
 extension), a KeyframePoses update that moves every keyframe 1 m along x
-(the map must follow), ~pause / ~resume, and ~reset (empty map)."""
+(the map must follow), a runtime voxel-size change (dynamic_reconfigure),
+~pause / ~resume, and ~reset (empty map)."""
 import copy
 import os
 import sys
 import tempfile
 import unittest
 
+import dynamic_reconfigure.client
 import rosbag
 import rospy
 import rostest
@@ -111,6 +113,21 @@ class KeyframeServices(unittest.TestCase):
         self.assertAlmostEqual(after[1] - before[1], 0.0, delta=leaf)
         self.assertAlmostEqual(after[2] - before[2], 0.0, delta=leaf)
         self.assertAlmostEqual(count_after, count_before, delta=0.05 * count_before)  # re-voxelised
+
+        # dynamic_reconfigure: a coarser voxel size rebuilds the map at once.
+        reconfigured = watch.count('reconfigurations')
+        maps_before = len(self.maps)
+        client = dynamic_reconfigure.client.Client(watch.node, timeout=10)
+        self.assertAlmostEqual(client.get_configuration(timeout=10)['voxel_size'], leaf)  # from the yaml
+        client.update_configuration({'voxel_size': 4 * leaf})
+        self.assertTrue(watch.wait_for(lambda: watch.count('reconfigurations') == reconfigured + 1, 10),
+                        watch.diagnostics)
+        self.assertTrue(watch.wait_for(lambda: len(self.maps) > maps_before, 10))
+        coarse = self.latest_map().width
+        rospy.loginfo('check_keyframe_services: voxel size %.2f -> %.2f m: %d -> %d map points', leaf, 4 * leaf,
+                      count_after, coarse)
+        self.assertGreater(coarse, 0)
+        self.assertLess(coarse, count_after)  # measured 1226 -> 718: coarser voxels merge points
 
         # Pause: input ignored and counted; resume; reset: an empty map.
         self.assertTrue(watch.call('pause').success)

@@ -34,6 +34,7 @@
 #include <thread>
 
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <image_transport/image_transport.h>
 #include <image_transport/subscriber_filter.h>
@@ -51,6 +52,7 @@
 
 #include "amhmvs_mapping/Keyframe.h"
 #include "amhmvs_mapping/KeyframePoses.h"
+#include "amhmvs_mapping/MappingTunablesConfig.h"
 #include "amhmvs_mapping/SaveMap.h"
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
@@ -121,6 +123,11 @@ class MappingNodelet : public nodelet::Nodelet {
   bool pauseService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool resumeService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+  // dynamic_reconfigure: keyframe picking at once, the rest by the worker
+  // before its next keyframe.
+  void reconfigure(MappingTunablesConfig& tunables, uint32_t level);
+  // Worker: applies a pending reconfiguration.
+  void applyReconfiguration(const MappingConfig& next);
 
   MappingConfig config_;
 
@@ -141,6 +148,9 @@ class MappingNodelet : public nodelet::Nodelet {
   ros::Publisher cloud_pub_, map_pub_, markers_pub_;
   ros::ServiceServer save_map_srv_, reset_srv_, pause_srv_, resume_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  boost::recursive_mutex reconfigure_mutex_;  // the type dynamic_reconfigure takes
+  std::unique_ptr<dynamic_reconfigure::Server<MappingTunablesConfig>> reconfigure_server_;
+  MappingConfig reconfigured_;  // the reconfigure callback's copy
   ros::WallTimer diagnostics_timer_;
 
   // Input state (subscriber threads), guarded by input_mutex_.
@@ -155,6 +165,7 @@ class MappingNodelet : public nodelet::Nodelet {
   std::condition_variable queue_cv_;
   std::deque<Frame> queue_;
   std::map<int64_t, Eigen::Isometry3d> pose_updates_;  // keyframe id -> camera-to-world
+  std::unique_ptr<MappingConfig> pending_config_;      // from reconfigure(), for the worker
   bool stop_ = false;
   std::atomic<bool> paused_{false};
   std::atomic<bool> reset_requested_{false};
