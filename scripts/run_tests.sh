@@ -47,7 +47,9 @@ status=$?
 set -e
 # ROS tests: the gtest of the nodelet's message conversions, then rostests,
 # each with its own roscore: the fountain bag through the nodelet loaded into
-# a manager (pose topic) and through the standalone node (tf), and bad input.
+# a manager (pose topic) and through the standalone node (tf), the temple and
+# ICL bags (map in the object's box, odometry input; plumbing), keyframe mode with the
+# services and a loop closure, a missing transform, and bad input.
 echo "== ROS tests (message conversions; rostest) =="
 ros_results=$build/test_results/ros
 rm -rf "$ros_results"
@@ -67,6 +69,10 @@ if [ -f "$bag" ]; then
   # name, test file, launch arguments
   for run in "fountain_manager_pose replay_fountain.test standalone:=false input_mode:=pose" \
              "fountain_standalone_tf replay_fountain.test standalone:=true input_mode:=tf" \
+             "temple_map_odometry replay_map.test scene:=temple input_mode:=odometry" \
+             "icl_plumbing replay_map.test scene:=icl" \
+             "keyframe_services keyframe_services.test" \
+             "missing_tf missing_tf.test" \
              "bad_input bad_input.test"; do
     read -r name file args <<< "$run"
     dir=$ros_results/$name
@@ -86,7 +92,7 @@ if [ -f "$bag" ]; then
   done
 else
   echo "rostest: skipped, no bag at $bag"
-  ros_runs+=(skipped skipped skipped)
+  ros_runs+=(skipped skipped skipped skipped skipped skipped skipped)
 fi
 
 python3 - "$results" "${ros_runs[@]}" <<'PY'

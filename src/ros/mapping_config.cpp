@@ -1,5 +1,7 @@
 #include "amhmvs_mapping/ros/mapping_config.h"
 
+#include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <XmlRpcValue.h>
@@ -26,34 +28,100 @@ bool paramText(const ros::NodeHandle& nh, const std::string& name, std::string* 
   return true;
 }
 
+// Typed reads of optional parameters (unset: the value stays).
+void read(const ros::NodeHandle& nh, const std::string& name, double* value) { nh.param(name, *value, *value); }
+void read(const ros::NodeHandle& nh, const std::string& name, int* value) { nh.param(name, *value, *value); }
+void read(const ros::NodeHandle& nh, const std::string& name, bool* value) { nh.param(name, *value, *value); }
+void read(const ros::NodeHandle& nh, const std::string& name, std::string* value) {
+  nh.param(name, *value, *value);
+}
+void read(const ros::NodeHandle& nh, const std::string& name, size_t* value) {
+  int v = static_cast<int>(*value);
+  nh.param(name, v, v);
+  *value = v < 0 ? 0 : static_cast<size_t>(v);
+}
+// Fusion thresholds: 0 on the parameter server switches a check off
+// (FusionOptions uses +infinity, which XML-RPC cannot carry).
+void readThreshold(const ros::NodeHandle& nh, const std::string& name, float* value) {
+  double v = std::isinf(*value) ? 0.0 : *value;
+  nh.param(name, v, v);
+  *value = v == 0 ? amhmvs::FusionOptions::kOff : static_cast<float>(v);
+}
+
+void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o) {
+  read(nh, "store/max_keyframes", &o->store.max_keyframes);
+  double max_mib = static_cast<double>(o->store.max_bytes) / (1 << 20);
+  read(nh, "store/max_memory_mb", &max_mib);
+  o->store.max_bytes = max_mib > 0 ? static_cast<size_t>(max_mib * (1 << 20)) : 0;
+
+  read(nh, "sources/max_sources", &o->sources.max_sources);
+  read(nh, "sources/min_triangulation_angle_deg", &o->sources.min_triangulation_angle_deg);
+  read(nh, "sources/max_triangulation_angle_deg", &o->sources.max_triangulation_angle_deg);
+  read(nh, "sources/max_axis_angle_deg", &o->sources.max_axis_angle_deg);
+  read(nh, "sources/min_overlap", &o->sources.min_overlap);
+  read(nh, "sources/preferred_angle_deg", &o->sources.preferred_angle_deg);
+  read(nh, "sources/default_scene_depth", &o->sources.default_scene_depth);
+
+  read(nh, "depth_range/use_given_range", &o->depth_range.use_given_range);
+  read(nh, "depth_range/near_factor", &o->depth_range.near_factor);
+  read(nh, "depth_range/far_factor", &o->depth_range.far_factor);
+  read(nh, "depth_range/min_sparse_points", &o->depth_range.min_sparse_points);
+  read(nh, "depth_range/min_depth_samples", &o->depth_range.min_depth_samples);
+  read(nh, "depth_range/default_min", &o->depth_range.default_min);
+  read(nh, "depth_range/default_max", &o->depth_range.default_max);
+
+  readThreshold(nh, "fusion/max_reprojection_error", &o->fusion.max_reprojection_error);
+  readThreshold(nh, "fusion/max_relative_depth_difference", &o->fusion.max_relative_depth_difference);
+  readThreshold(nh, "fusion/max_disparity_difference", &o->fusion.max_disparity_difference);
+  readThreshold(nh, "fusion/max_normal_angle_deg", &o->fusion.max_normal_angle_deg);
+  readThreshold(nh, "fusion/max_cost", &o->fusion.max_cost);
+  read(nh, "fusion/min_consistent_views", &o->fusion.min_consistent_views);
+
+  read(nh, "map/voxel_size", &o->map.leaf_size);
+  read(nh, "map/max_voxels", &o->map.max_voxels);
+}
+
+// Each group of the mapping core checked on its own: a bad group is
+// reported and replaced by its defaults.
+template <typename Options>
+void requireValid(const char* group, Options* options, const Options& defaults, std::ostringstream* err) {
+  const std::string problems = options->validate();
+  if (problems.empty()) return;
+  *err << group << " options invalid, using the defaults:\n" << problems;
+  *options = defaults;
+}
+
 }  // namespace
+
+amhmvs::OnlineMapperOptions MappingConfig::defaultMapperOptions() {
+  amhmvs::OnlineMapperOptions options;
+  options.store.max_keyframes = 50;
+  options.store.max_bytes = size_t{1} << 30;
+  options.sources.max_sources = 4;
+  options.fusion.max_cost = 0.6f;
+  return options;
+}
 
 MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors) {
   MappingConfig c;
   const MappingConfig defaults;
   std::ostringstream err;
-  pnh.param("input_mode", c.input_mode, c.input_mode);
-  pnh.param("fixed_frame", c.fixed_frame, c.fixed_frame);
-  pnh.param("tf_timeout", c.tf_timeout, c.tf_timeout);
-  pnh.param("queue_size", c.queue_size, c.queue_size);
-  pnh.param("sync_queue_size", c.sync_queue_size, c.sync_queue_size);
-  pnh.param("sync_max_interval", c.sync_max_interval, c.sync_max_interval);
-  pnh.param("keyframe_min_translation", c.keyframe_min_translation, c.keyframe_min_translation);
-  pnh.param("keyframe_min_rotation_deg", c.keyframe_min_rotation_deg, c.keyframe_min_rotation_deg);
-  pnh.param("max_keyframes", c.max_keyframes, c.max_keyframes);
-  pnh.param("num_sources", c.sources.num_sources, c.sources.num_sources);
-  pnh.param("min_baseline", c.sources.min_baseline, c.sources.min_baseline);
-  pnh.param("max_baseline", c.sources.max_baseline, c.sources.max_baseline);
-  pnh.param("max_source_angle_deg", c.sources.max_angle_deg, c.sources.max_angle_deg);
-  pnh.param("min_depth", c.min_depth, c.min_depth);
-  pnh.param("max_depth", c.max_depth, c.max_depth);
-  pnh.param("backend", c.backend, c.backend);
-  pnh.param("max_image_size", c.max_image_size, c.max_image_size);
-  pnh.param("cloud_max_cost", c.cloud_max_cost, c.cloud_max_cost);
-  pnh.param("diagnostics_period", c.diagnostics_period, c.diagnostics_period);
+  read(pnh, "input_mode", &c.input_mode);
+  read(pnh, "fixed_frame", &c.fixed_frame);
+  read(pnh, "tf_timeout", &c.tf_timeout);
+  read(pnh, "queue_size", &c.queue_size);
+  read(pnh, "sync_queue_size", &c.sync_queue_size);
+  read(pnh, "sync_max_interval", &c.sync_max_interval);
+  read(pnh, "keyframe_min_translation", &c.keyframe_min_translation);
+  read(pnh, "keyframe_min_rotation_deg", &c.keyframe_min_rotation_deg);
+  read(pnh, "backend", &c.backend);
+  read(pnh, "max_image_size", &c.max_image_size);
+  read(pnh, "map_publish_period", &c.map_publish_period);
+  read(pnh, "diagnostics_period", &c.diagnostics_period);
+  readMapperOptions(pnh, &c.mapper);
 
-  if (c.input_mode != "pose" && c.input_mode != "tf" && c.input_mode != "keyframe") {
-    err << "input_mode '" << c.input_mode << "' is not pose, tf or keyframe; using pose\n";
+  if (c.input_mode != "pose" && c.input_mode != "odometry" && c.input_mode != "tf" && c.input_mode != "keyframe") {
+    err << "input_mode '" << c.input_mode << "' is not pose, odometry, tf or keyframe; using pose\n";
     c.input_mode = defaults.input_mode;
   }
   // A bad value is reported and replaced by its default.
@@ -73,15 +141,6 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
     c.keyframe_min_translation = defaults.keyframe_min_translation;
     c.keyframe_min_rotation_deg = defaults.keyframe_min_rotation_deg;
   }
-  require(c.max_keyframes >= 1, "max_keyframes must be >= 1", c.max_keyframes,
-          defaults.max_keyframes);
-  const std::string source_problems = c.sources.validate();
-  if (!source_problems.empty()) { err << source_problems; c.sources = defaults.sources; }
-  if (!(c.min_depth > 0 && c.max_depth > c.min_depth && std::isfinite(c.max_depth))) {
-    err << "need 0 < min_depth < max_depth (got " << c.min_depth << ", " << c.max_depth << ")\n";
-    c.min_depth = defaults.min_depth;
-    c.max_depth = defaults.max_depth;
-  }
   try {
     amhmvs::parseBackend(c.backend);
   } catch (const amhmvs::InputError& e) {
@@ -90,10 +149,16 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
   }
   require(c.max_image_size == 0 || c.max_image_size >= 16,
           "max_image_size must be 0 (off) or >= 16", c.max_image_size, defaults.max_image_size);
-  require(c.cloud_max_cost > 0, "cloud_max_cost must be > 0", c.cloud_max_cost,
-          defaults.cloud_max_cost);
+  require(c.map_publish_period > 0, "map_publish_period must be > 0", c.map_publish_period,
+          defaults.map_publish_period);
   require(c.diagnostics_period > 0, "diagnostics_period must be > 0", c.diagnostics_period,
           defaults.diagnostics_period);
+
+  requireValid("store", &c.mapper.store, defaults.mapper.store, &err);
+  requireValid("sources", &c.mapper.sources, defaults.mapper.sources, &err);
+  requireValid("depth_range", &c.mapper.depth_range, defaults.mapper.depth_range, &err);
+  requireValid("fusion", &c.mapper.fusion, defaults.mapper.fusion, &err);
+  requireValid("map", &c.mapper.map, defaults.mapper.map, &err);
 
   // Estimator options: every entry of the option table, as ~estimator/<name>.
   for (const amhmvs::OptionInfo& option : amhmvs::patchMatchOptionTable()) {
@@ -105,11 +170,7 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
       err << "estimator/" << option.name << ": " << e.what() << "\n";
     }
   }
-  const std::string option_problems = c.estimator.validate();
-  if (!option_problems.empty()) {
-    err << "estimator options invalid, using the defaults:\n" << option_problems;
-    c.estimator = amhmvs::PatchMatchOptions();
-  }
+  requireValid("estimator", &c.estimator, defaults.estimator, &err);
   if (errors) *errors = err.str();
   return c;
 }

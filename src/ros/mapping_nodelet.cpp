@@ -5,22 +5,33 @@
 
 #include <pluginlib/class_list_macros.hpp>
 #include <sensor_msgs/PointCloud2.h>
+#include <visualization_msgs/MarkerArray.h>
 #include <tf2/exceptions.h>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mapping/fallback_estimator.h"
+#include "amhmvs_mapping/mapping/map_export.h"
+#include "amhmvs_mapping/mapping/undistortion.h"
+#include "amhmvs_mapping/ros/keyframe_markers.h"
+#include "amhmvs_mapping/ros/mapping_tunables.h"
 #include "amhmvs_mapping/ros/ros_conversions.h"
-#include "amhmvs_mapping/ros/source_views.h"
 
 namespace amhmvs_mapping {
 
 namespace {
 constexpr double kReportPeriod = 5.0;  // seconds between reports of one drop reason
+// Frusta drawn to this fraction of the scene depth: visible, not cluttering.
+constexpr double kFrustumDepthFraction = 0.15;
+// GPU failures in a row before every keyframe goes to the CPU.
+constexpr int kSwitchToCpuAfter = 3;
 }
 
 MappingNodelet::~MappingNodelet() {
   // Inputs first, so that no callback feeds a stopping worker.
   pose_sync_.reset();
+  odometry_sync_.reset();
   camera_sync_.reset();
+  odometry_filter_.reset();
   image_filter_.reset();
   info_filter_.reset();
   pose_filter_.reset();
@@ -48,8 +59,12 @@ void MappingNodelet::onInit() {
   confidence_pub_ = it_->advertise("confidence/image", 5);
   preview_pub_ = it_->advertise("depth/preview", 5);
   cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("keyframe_cloud", 5);
+  // Latched: a late subscriber (rviz) gets the current map at once.
+  map_pub_ = nh.advertise<sensor_msgs::PointCloud2>("map", 1, true);
+  markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("keyframe_markers", 5);
 
   // Services.
+  save_map_srv_ = pnh.advertiseService("save_map", &MappingNodelet::saveMapService, this);
   reset_srv_ = pnh.advertiseService("reset", &MappingNodelet::resetService, this);
   pause_srv_ = pnh.advertiseService("pause", &MappingNodelet::pauseService, this);
   resume_srv_ = pnh.advertiseService("resume", &MappingNodelet::resumeService, this);
@@ -61,6 +76,14 @@ void MappingNodelet::onInit() {
   // Wall timer: simulated time stops when a bag ends, the worker may not.
   diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(config_.diagnostics_period),
                                           [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+
+  // Runtime tunables, starting from the loaded parameters.
+  reconfigured_ = config_;
+  reconfigure_server_.reset(new dynamic_reconfigure::Server<MappingTunablesConfig>(reconfigure_mutex_, pnh));
+  MappingTunablesConfig initial = tunablesFrom(config_);
+  reconfigure_server_->updateConfig(initial);
+  reconfigure_server_->setCallback(
+      [this](MappingTunablesConfig& tunables, uint32_t level) { reconfigure(tunables, level); });
 
   // Worker (creates the estimator: choosing the backend may take a while).
   worker_ = std::thread(&MappingNodelet::workerLoop, this);
@@ -80,6 +103,13 @@ void MappingNodelet::onInit() {
       policy.setMaxIntervalDuration(ros::Duration(config_.sync_max_interval));
       pose_sync_.reset(new message_filters::Synchronizer<PoseSync>(static_cast<const PoseSync&>(policy), *image_filter_, *info_filter_, *pose_filter_));
       pose_sync_->registerCallback(&MappingNodelet::poseCallback, this);
+    } else if (config_.input_mode == "odometry") {
+      odometry_filter_.reset(new message_filters::Subscriber<nav_msgs::Odometry>(nh, "odom", q));
+      OdometrySync policy(q);
+      policy.setMaxIntervalDuration(ros::Duration(config_.sync_max_interval));
+      odometry_sync_.reset(new message_filters::Synchronizer<OdometrySync>(
+          static_cast<const OdometrySync&>(policy), *image_filter_, *info_filter_, *odometry_filter_));
+      odometry_sync_->registerCallback(&MappingNodelet::odometryCallback, this);
     } else {
       tf_buffer_.reset(new tf2_ros::Buffer());
       tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_, nh));
@@ -89,9 +119,11 @@ void MappingNodelet::onInit() {
       camera_sync_->registerCallback(&MappingNodelet::cameraCallback, this);
     }
   }
-  NODELET_INFO("amhmvs mapping: input mode %s, queue %d, %d sources, depth %.2f..%.2f m, max image size %d",
-               config_.input_mode.c_str(), config_.queue_size, config_.sources.num_sources, config_.min_depth,
-               config_.max_depth, config_.max_image_size);
+  NODELET_INFO("amhmvs mapping: input mode %s, queue %d, up to %d sources, default depth %.2f..%.2f m, "
+               "max image size %d, voxel size %.3f m",
+               config_.input_mode.c_str(), config_.queue_size, config_.mapper.sources.max_sources,
+               config_.mapper.depth_range.default_min, config_.mapper.depth_range.default_max,
+               config_.max_image_size, config_.mapper.map.leaf_size);
 }
 
 // ---------------------------------------------------------------- inputs ---
@@ -107,6 +139,7 @@ void MappingNodelet::keyframeCallback(const amhmvs_mapping::KeyframeConstPtr& ms
   frame.info = sensor_msgs::CameraInfoConstPtr(msg, &msg->camera_info);
   frame.min_depth = msg->min_depth;
   frame.max_depth = msg->max_depth;
+  for (const geometry_msgs::Point& p : msg->sparse_points) frame.sparse_points.emplace_back(p.x, p.y, p.z);
   offer(std::move(frame), msg->camera_to_world, false);
 }
 
@@ -131,16 +164,27 @@ void MappingNodelet::keyframePosesCallback(const amhmvs_mapping::KeyframePosesCo
 void MappingNodelet::poseCallback(const sensor_msgs::ImageConstPtr& image,
                                   const sensor_msgs::CameraInfoConstPtr& info,
                                   const geometry_msgs::PoseStampedConstPtr& pose) {
-  if (!pose->header.frame_id.empty() && pose->header.frame_id != config_.fixed_frame) {
-    NODELET_WARN_ONCE("pose frame '%s' is not ~fixed_frame '%s': the poses are used as they are",
-                      pose->header.frame_id.c_str(), config_.fixed_frame.c_str());
+  offerImage(image, info, pose->header.frame_id, pose->pose);
+}
+
+void MappingNodelet::odometryCallback(const sensor_msgs::ImageConstPtr& image,
+                                      const sensor_msgs::CameraInfoConstPtr& info,
+                                      const nav_msgs::OdometryConstPtr& odometry) {
+  offerImage(image, info, odometry->header.frame_id, odometry->pose.pose);
+}
+
+void MappingNodelet::offerImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
+                                const std::string& pose_frame, const geometry_msgs::Pose& pose) {
+  if (!pose_frame.empty() && pose_frame != config_.fixed_frame) {
+    NODELET_WARN_ONCE("%s frame '%s' is not ~fixed_frame '%s': the poses are used as they are",
+                      config_.input_mode.c_str(), pose_frame.c_str(), config_.fixed_frame.c_str());
   }
   Frame frame;
   frame.stamp = image->header.stamp;
   frame.optical_frame = image->header.frame_id;
   frame.image = image;
   frame.info = info;
-  offer(std::move(frame), pose->pose, true);
+  offer(std::move(frame), pose, true);
 }
 
 void MappingNodelet::cameraCallback(const sensor_msgs::ImageConstPtr& image,
@@ -171,15 +215,11 @@ void MappingNodelet::cameraCallback(const sensor_msgs::ImageConstPtr& image,
   pose.position.y = transform.transform.translation.y;
   pose.position.z = transform.transform.translation.z;
   pose.orientation = transform.transform.rotation;
-  Frame frame;
-  frame.stamp = image->header.stamp;
-  frame.optical_frame = image->header.frame_id;
-  frame.image = image;
-  frame.info = info;
-  offer(std::move(frame), pose, true);
+  offerImage(image, info, config_.fixed_frame, pose);
 }
 
 void MappingNodelet::offer(Frame frame, const geometry_msgs::Pose& pose, bool pick) {
+  count("frames_received");
   if (paused_) {
     count("ignored_while_paused");
     return;
@@ -298,15 +338,49 @@ void MappingNodelet::workerLoop() {
     backend_name_ = amhmvs::backendName(estimator_->backend());
   }
   NODELET_INFO("depth estimation backend: %s", amhmvs::backendName(estimator_->backend()));
+  // GPU failures: the keyframe reruns on the CPU; after kSwitchToCpuAfter
+  // failures in a row every keyframe does. The CPU has no fallback.
+  amhmvs::EstimateFunction cpu;
+  if (estimator_->backend() != amhmvs::Backend::kCpu) {
+    cpu = [this](const amhmvs::DepthProblem& problem) {
+      if (!cpu_estimator_) cpu_estimator_.reset(new amhmvs::DepthEstimator(config_.estimator, amhmvs::Backend::kCpu));
+      return cpu_estimator_->estimate(problem);
+    };
+  }
+  auto fallback = std::make_shared<amhmvs::FallbackEstimator>(
+      [this](const amhmvs::DepthProblem& problem) { return estimator_->estimate(problem); }, cpu,
+      kSwitchToCpuAfter, [this](const std::string& line) {
+        NODELET_ERROR_THROTTLE(kReportPeriod, "%s backend: %s", amhmvs::backendName(estimator_->backend()),
+                               line.c_str());
+        count("cpu_fallbacks");
+      });
+  {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    mapper_.reset(new amhmvs::OnlineMapper(config_.mapper, [this, fallback](const amhmvs::DepthProblem& problem) {
+      amhmvs::DepthMap map = (*fallback)(problem);
+      if (fallback->switched()) {
+        std::lock_guard<std::mutex> stats(stats_mutex_);
+        backend_name_ = std::string(amhmvs::backendName(estimator_->backend())) + " failed, now cpu";
+      }
+      return map;
+    }));
+  }
+  publishMap(true);  // an empty map, so that latched subscribers see the frame
 
+  const std::chrono::duration<double> map_period(config_.map_publish_period);
   std::map<int64_t, Eigen::Isometry3d> updates;
+  std::unique_ptr<MappingConfig> next_config;
   while (true) {
     Frame frame;
     bool have_frame = false;
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
-      queue_cv_.wait(lock, [this] { return stop_ || !queue_.empty() || !pose_updates_.empty(); });
+      // Wakes at the map rate at the latest, to republish it.
+      queue_cv_.wait_for(lock, map_period, [this] {
+        return stop_ || !queue_.empty() || !pose_updates_.empty() || pending_config_;
+      });
       if (stop_) break;
+      next_config.swap(pending_config_);
       updates.swap(pose_updates_);
       if (!queue_.empty()) {
         frame = std::move(queue_.front());
@@ -314,144 +388,218 @@ void MappingNodelet::workerLoop() {
         have_frame = true;
       }
     }
-    if (reset_requested_.exchange(false)) store_.clear();
+    if (next_config) applyReconfiguration(*next_config);
+    next_config.reset();
+    if (reset_requested_.exchange(false)) {
+      std::lock_guard<std::mutex> lock(mapper_mutex_);
+      mapper_->reset();
+    }
     if (!updates.empty()) applyPoseUpdates(std::move(updates));
     updates.clear();
-    if (!have_frame) continue;
-    try {
-      process(frame);
-    } catch (const std::exception& e) {
-      drop("processing_error", "keyframe " + std::to_string(frame.id) + ": " + e.what());
+    if (have_frame) {
+      try {
+        process(frame);
+      } catch (const std::exception& e) {
+        drop("processing_error", "keyframe " + std::to_string(frame.id) + ": " + e.what());
+      }
     }
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    counts_["stored_keyframes"] = store_.size();
+    const bool due = (ros::WallTime::now() - last_map_publish_).toSec() >= config_.map_publish_period;
+    publishMap(due);
   }
 }
 
-void MappingNodelet::process(const Frame& frame) {
-  amhmvs::ImageU8 image;
-  std::string problem = imageFromMsg(*frame.image, &image);
-  if (!problem.empty()) {
-    drop("bad_image", problem);
-    return;
-  }
-  amhmvs::PinholeCamera camera;
-  bool distorted = false;
-  problem = cameraFromMsg(*frame.info, image.width, image.height, frame.camera_to_world, &camera, &distorted);
-  if (!problem.empty()) {
-    drop("bad_camera_info", problem);
-    return;
-  }
-  if (distorted)
-    NODELET_WARN_ONCE("camera_info has non-zero distortion coefficients: images are used without undistortion");
-  if (config_.max_image_size > 0 && std::max(image.width, image.height) > config_.max_image_size) {
-    const double scale = static_cast<double>(config_.max_image_size) / std::max(image.width, image.height);
-    const int width = std::max(1, static_cast<int>(std::lround(image.width * scale)));
-    const int height = std::max(1, static_cast<int>(std::lround(image.height * scale)));
-    image = amhmvs::resizeArea(image, width, height);
-    camera = camera.resized(width, height);
-  }
-  StoredView view;
-  view.id = frame.id;
-  view.camera = camera;
-  view.gray = amhmvs::toGray(image);
-  auto store = [&] {
-    store_.push_back(std::move(view));
-    while (store_.size() > static_cast<size_t>(config_.max_keyframes)) store_.pop_front();
-  };
-
-  std::vector<const amhmvs::PinholeCamera*> stored;
-  for (const StoredView& v : store_) stored.push_back(&v.camera);
-  const std::vector<size_t> sources = chooseSourceViews(camera, stored, config_.sources);
-  if (sources.empty()) {
-    count("keyframes_without_sources");
-    NODELET_INFO("keyframe %ld: no source view (%zu stored, none within the baseline and angle limits): "
-                 "stored as a source, no depth published",
-                 static_cast<long>(frame.id), store_.size());
-    store();
-    return;
-  }
-
-  amhmvs::DepthProblem depth_problem;
-  depth_problem.reference_camera = camera;
-  depth_problem.reference_image = view.gray;
-  for (size_t k : sources) {
-    depth_problem.source_cameras.push_back(store_[k].camera);
-    depth_problem.source_images.push_back(store_[k].gray);
+amhmvs::Keyframe MappingNodelet::toKeyframe(const Frame& frame) const {
+  amhmvs::Keyframe keyframe;
+  keyframe.id = frame.id;
+  keyframe.stamp = frame.stamp.toSec();
+  std::string problem = imageFromMsg(*frame.image, &keyframe.image);
+  if (problem.empty())
+    problem = cameraFromMsg(*frame.info, keyframe.image.width, keyframe.image.height, frame.camera_to_world,
+                            &keyframe.camera);
+  amhmvs::Distortion distortion;
+  if (problem.empty()) problem = amhmvs::parseDistortion(frame.info->distortion_model, frame.info->D, &distortion);
+  if (!problem.empty()) throw amhmvs::InputError(problem);
+  // Undistorted to the pinhole with the same K (what depth/camera_info says).
+  if (!distortion.isZero()) keyframe.image = amhmvs::undistortImage(keyframe.image, keyframe.camera, distortion);
+  if (config_.max_image_size > 0 && std::max(keyframe.image.width, keyframe.image.height) > config_.max_image_size) {
+    const double scale = static_cast<double>(config_.max_image_size) /
+                         std::max(keyframe.image.width, keyframe.image.height);
+    const int width = std::max(1, static_cast<int>(std::lround(keyframe.image.width * scale)));
+    const int height = std::max(1, static_cast<int>(std::lround(keyframe.image.height * scale)));
+    keyframe.image = amhmvs::resizeArea(keyframe.image, width, height);
+    keyframe.camera = keyframe.camera.resized(width, height);
   }
   const bool msg_range = frame.min_depth > 0 && frame.max_depth > frame.min_depth && std::isfinite(frame.max_depth);
-  depth_problem.depth_min = msg_range ? frame.min_depth : config_.min_depth;
-  depth_problem.depth_max = msg_range ? frame.max_depth : config_.max_depth;
+  if (msg_range) {
+    keyframe.depth_min = frame.min_depth;
+    keyframe.depth_max = frame.max_depth;
+  }
+  keyframe.sparse_points = frame.sparse_points;
+  return keyframe;
+}
 
-  amhmvs::DepthMap map;
-  const bool ok = estimate(depth_problem, &map, frame.id);
-  store();
-  if (!ok) return;
+void MappingNodelet::process(const Frame& frame) {
+  amhmvs::Keyframe keyframe;
+  try {
+    keyframe = toKeyframe(frame);
+  } catch (const amhmvs::InputError& e) {
+    drop("bad_keyframe", "keyframe " + std::to_string(frame.id) + ": " + e.what());
+    return;
+  }
+  amhmvs::KeyframeResult result;
   {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    try {
+      result = mapper_->process(std::move(keyframe));
+    } catch (const amhmvs::InputError& e) {
+      drop("invalid_keyframe", "keyframe " + std::to_string(frame.id) + ": " + e.what());
+      return;
+    } catch (const amhmvs::BackendError& e) {
+      drop("backend_error", "keyframe " + std::to_string(frame.id) + ": " + e.what());
+      return;
+    }
+    std::lock_guard<std::mutex> stats(stats_mutex_);
+    counts_["stored_keyframes"] = mapper_->store().size();
+    counts_["keyframes_evicted"] = mapper_->store().evictedCount();
+    map_voxels_ = mapper_->map().voxelCount();
+  }
+  if (!result.has_depth) {
+    count("keyframes_without_sources");
+    NODELET_INFO("keyframe %ld: no source view (%s): stored as a source, no depth published",
+                 static_cast<long>(frame.id), result.selection.reason.c_str());
+  } else {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++counts_["depth_maps"];
-    last_estimate_ms_ = map.milliseconds;
+    last_estimate_ms_ = result.depth.milliseconds;
+    last_gpu_memory_bytes_ = result.depth.gpu_memory_bytes;
+    counts_["map_points_added"] += result.map_update.added_points;
+    counts_["map_points_skipped_invalid"] += result.map_update.skipped_invalid;
+    counts_["map_points_over_budget"] += result.map_update.dropped_over_budget;
   }
-  NODELET_DEBUG("keyframe %ld: depth from %zu sources in %.0f ms (%s)", static_cast<long>(frame.id), sources.size(),
-                map.milliseconds, amhmvs::backendName(map.backend));
+  NODELET_DEBUG("keyframe %ld: %zu sources, depth %.2f..%.2f m (%s), %.0f ms, %zu fused points",
+                static_cast<long>(frame.id), result.selection.source_ids.size(), result.depth_range.min,
+                result.depth_range.max, amhmvs::depthRangeSourceName(result.depth_range.source),
+                result.depth.milliseconds, result.points.size());
+  publishKeyframe(frame, result);
+}
 
+void MappingNodelet::publishKeyframe(const Frame& frame, const amhmvs::KeyframeResult& result) {
+  if (markers_pub_.getNumSubscribers() > 0) {
+    std::vector<MarkerCamera> cameras;
+    {
+      std::lock_guard<std::mutex> lock(mapper_mutex_);
+      for (int64_t id : mapper_->store().ids()) cameras.push_back({id, mapper_->store().keyframe(id).camera});
+    }
+    std_msgs::Header fixed;
+    fixed.stamp = frame.stamp;
+    fixed.frame_id = config_.fixed_frame;
+    const double frustum_depth = kFrustumDepthFraction * result.selection.scene_depth.depth;
+    markers_pub_.publish(keyframeMarkers(cameras, result.id, result.selection.source_ids, frustum_depth, fixed));
+  }
+  if (!result.has_depth) return;
   std_msgs::Header header;
   header.stamp = frame.stamp;
   header.frame_id = frame.optical_frame;
   // Expensive outputs only for subscribers.
   if (depth_pub_.getNumSubscribers() > 0)
-    depth_pub_.publish(depthImageMsg(map.depth, header), cameraInfoMsg(camera, header));
-  if (confidence_pub_.getNumSubscribers() > 0) confidence_pub_.publish(confidenceImageMsg(map, header));
+    depth_pub_.publish(depthImageMsg(result.depth.depth, header), cameraInfoMsg(result.camera, header));
+  if (confidence_pub_.getNumSubscribers() > 0) confidence_pub_.publish(confidenceImageMsg(result.depth, header));
   if (preview_pub_.getNumSubscribers() > 0) {
-    sensor_msgs::ImagePtr preview = depthPreviewMsg(map.depth, header);
+    sensor_msgs::ImagePtr preview = depthPreviewMsg(result.depth.depth, header);
     if (preview) preview_pub_.publish(preview);
   }
-  if (cloud_pub_.getNumSubscribers() > 0)
-    cloud_pub_.publish(keyframeCloudMsg(map, camera, image, config_.cloud_max_cost, header));
+  if (cloud_pub_.getNumSubscribers() > 0) cloud_pub_.publish(cloudMsg(keyframeCloud(result.points), header));
+}
+
+void MappingNodelet::publishMap(bool republish) {
+  sensor_msgs::PointCloud2Ptr msg;
+  {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    const bool changed = mapper_->mapRevision() != published_map_revision_;
+    if (!changed && !republish) return;
+    // Latched: publish changes even without subscribers only when cheap
+    // (rviz may subscribe later); the rate republishes for late joiners.
+    if (map_pub_.getNumSubscribers() == 0 && !republish) return;
+    std_msgs::Header header;
+    header.stamp = ros::Time::now();
+    header.frame_id = config_.fixed_frame;
+    msg = cloudMsg(mapper_->map().exportCloud(), header);
+    published_map_revision_ = mapper_->mapRevision();
+    std::lock_guard<std::mutex> stats(stats_mutex_);
+    map_voxels_ = mapper_->map().voxelCount();
+  }
+  last_map_publish_ = ros::WallTime::now();
+  map_pub_.publish(msg);
 }
 
 void MappingNodelet::applyPoseUpdates(std::map<int64_t, Eigen::Isometry3d> updates) {
-  uint64_t applied = 0;
-  for (StoredView& view : store_) {
-    auto it = updates.find(view.id);
-    if (it == updates.end()) continue;
-    const Eigen::Isometry3d world_to_camera = it->second.inverse();
-    view.camera.R = world_to_camera.linear();
-    view.camera.t = world_to_camera.translation();
-    updates.erase(it);
-    ++applied;
+  uint64_t applied = 0, not_stored = 0;
+  {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    for (const auto& update : updates) {
+      try {
+        if (mapper_->updatePose(update.first, update.second))
+          ++applied;
+        else
+          ++not_stored;  // evicted, reset, or not yet processed
+      } catch (const amhmvs::InputError& e) {
+        drop("bad_pose_update", e.what());
+      }
+    }
   }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   counts_["pose_updates_applied"] += applied;
-  // Ids not (or no longer) stored: evicted, reset, or not yet processed.
-  if (!updates.empty()) counts_["pose_updates_not_stored"] += updates.size();
+  if (not_stored > 0) counts_["pose_updates_not_stored"] += not_stored;
 }
 
-bool MappingNodelet::estimate(const amhmvs::DepthProblem& problem, amhmvs::DepthMap* map, int64_t id) {
-  const std::string which = "keyframe " + std::to_string(id) + ": ";
+bool MappingNodelet::saveMapService(amhmvs_mapping::SaveMap::Request& req, amhmvs_mapping::SaveMap::Response& res) {
   try {
-    *map = estimator_->estimate(problem);
-    return true;
-  } catch (const amhmvs::InputError& e) {
-    drop("invalid_problem", which + e.what());
-    return false;
-  } catch (const amhmvs::BackendError& e) {
-    if (estimator_->backend() == amhmvs::Backend::kCpu) {
-      drop("backend_error", which + e.what());
-      return false;
-    }
-    NODELET_ERROR_THROTTLE(kReportPeriod, "%s%s backend failed (%s): this keyframe falls back to the CPU",
-                           which.c_str(), amhmvs::backendName(estimator_->backend()), e.what());
-    count("cpu_fallbacks");
-  }
-  try {
-    if (!cpu_estimator_) cpu_estimator_.reset(new amhmvs::DepthEstimator(config_.estimator, amhmvs::Backend::kCpu));
-    *map = cpu_estimator_->estimate(problem);
-    return true;
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    if (!mapper_) throw amhmvs::InputError("the mapper is not started yet");
+    amhmvs::writeMap(req.path, mapper_->map());
+    res.success = true;
+    res.message = "saved " + std::to_string(mapper_->map().voxelCount()) + " points to " + req.path;
+    NODELET_INFO("%s", res.message.c_str());
   } catch (const std::exception& e) {
-    drop("backend_error", which + "CPU fallback failed: " + e.what());
-    return false;
+    res.success = false;
+    res.message = std::string("save_map failed: ") + e.what();
+    NODELET_ERROR("%s", res.message.c_str());
   }
+  return true;
+}
+
+void MappingNodelet::applyReconfiguration(const MappingConfig& next) {
+  try {
+    const std::string problems = next.estimator.validate();
+    if (!problems.empty()) throw amhmvs::InputError("estimator options:\n" + problems);
+    {
+      std::lock_guard<std::mutex> lock(mapper_mutex_);
+      mapper_->setOptions(next.mapper);  // a new voxel size rebuilds the map
+    }
+    estimator_.reset(new amhmvs::DepthEstimator(next.estimator, estimator_->backend()));
+    cpu_estimator_.reset();
+    config_.estimator = next.estimator;
+    config_.mapper = next.mapper;
+    count("reconfigurations");
+    NODELET_INFO("reconfigured: %d iterations, up to %d sources, voxel size %.3f m", next.estimator.num_iterations,
+                 next.mapper.sources.max_sources, next.mapper.map.leaf_size);
+  } catch (const std::exception& e) {
+    drop("bad_reconfiguration", e.what());
+  }
+}
+
+void MappingNodelet::reconfigure(MappingTunablesConfig& tunables, uint32_t /*level*/) {
+  applyTunables(tunables, &reconfigured_);
+  {
+    std::lock_guard<std::mutex> lock(input_mutex_);
+    config_.keyframe_min_translation = reconfigured_.keyframe_min_translation;
+    config_.keyframe_min_rotation_deg = reconfigured_.keyframe_min_rotation_deg;
+  }
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    pending_config_.reset(new MappingConfig(reconfigured_));
+  }
+  queue_cv_.notify_one();
 }
 
 // -------------------------------------------------------------- services ---
@@ -509,6 +657,14 @@ void MappingNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("paused", static_cast<bool>(paused_));
   status.add("queued", queued);
   status.add("last estimate ms", last_estimate_ms_);
+  status.add("gpu memory MiB", last_gpu_memory_bytes_ / double(1 << 20));
+  status.add("map voxels", map_voxels_);
+  const ros::WallTime now = ros::WallTime::now();
+  const uint64_t frames = counts_.count("frames_received") ? counts_.at("frames_received") : 0;
+  if (!last_rate_time_.isZero() && now > last_rate_time_)
+    status.add("input rate hz", (frames - last_rate_frames_) / (now - last_rate_time_).toSec());
+  last_rate_time_ = now;
+  last_rate_frames_ = frames;
   for (const auto& entry : counts_) status.add(entry.first, entry.second);
   for (const auto& entry : drops_) status.add("dropped: " + entry.first, entry.second);
 }

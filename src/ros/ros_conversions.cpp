@@ -178,26 +178,22 @@ sensor_msgs::ImagePtr depthPreviewMsg(const amhmvs::ImageF& depth, const std_msg
   return msg;
 }
 
-sensor_msgs::PointCloud2Ptr keyframeCloudMsg(const amhmvs::DepthMap& map, const amhmvs::PinholeCamera& camera,
-                                             const amhmvs::ImageU8& colour, double max_cost,
-                                             const std_msgs::Header& header) {
-  const amhmvs::ImageF& depth = map.depth;
-  const bool has_normals = map.normal.channels == 3 && map.normal.sameSize(depth.width, depth.height);
-  const bool has_cost = map.cost.sameSize(depth.width, depth.height);
-  const bool has_colour = colour.sameSize(depth.width, depth.height) && (colour.channels == 1 || colour.channels == 3);
-  auto valid = [&](int x, int y) {
-    const float d = depth.at(x, y);
-    if (!(std::isfinite(d) && d > 0)) return false;
-    if (has_cost && !(map.cost.at(x, y) <= max_cost)) return false;
-    if (has_normals) {
-      for (int c = 0; c < 3; ++c)
-        if (!std::isfinite(map.normal.at(x, y, c))) return false;
-    }
-    return true;
-  };
+amhmvs::MapCloud keyframeCloud(const amhmvs::KeyframePoints& points) {
+  amhmvs::MapCloud cloud;
+  for (const amhmvs::KeyframePoint& point : points) {
+    cloud.positions.push_back(point.position);
+    cloud.normals.push_back(point.normal);
+    cloud.colors.emplace_back(point.rgb[0], point.rgb[1], point.rgb[2]);
+    cloud.confidences.push_back(point.confidence);
+    cloud.counts.push_back(1);
+  }
+  return cloud;
+}
+
+sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::MapCloud& cloud, const std_msgs::Header& header) {
+  auto finite = [&](size_t i) { return cloud.positions[i].allFinite() && cloud.normals[i].allFinite(); };
   size_t count = 0;
-  for (int y = 0; y < depth.height; ++y)
-    for (int x = 0; x < depth.width; ++x) count += valid(x, y);
+  for (size_t i = 0; i < cloud.size(); ++i) count += finite(i);
 
   auto msg = boost::make_shared<sensor_msgs::PointCloud2>();
   msg->header = header;
@@ -215,30 +211,20 @@ sensor_msgs::PointCloud2Ptr keyframeCloudMsg(const amhmvs::DepthMap& map, const 
   sensor_msgs::PointCloud2Iterator<float> it_x(*msg, "x"), it_y(*msg, "y"), it_z(*msg, "z");
   sensor_msgs::PointCloud2Iterator<float> it_rgb(*msg, "rgb");
   sensor_msgs::PointCloud2Iterator<float> it_nx(*msg, "normal_x"), it_ny(*msg, "normal_y"), it_nz(*msg, "normal_z");
-  for (int y = 0; y < depth.height; ++y) {
-    for (int x = 0; x < depth.width; ++x) {
-      if (!valid(x, y)) continue;
-      const Eigen::Vector3d p = camera.backproject(x, y, depth.at(x, y));
-      *it_x = static_cast<float>(p.x());
-      *it_y = static_cast<float>(p.y());
-      *it_z = static_cast<float>(p.z());
-      uint32_t r = 200, g = 200, b = 200;
-      if (has_colour) {
-        r = colour.at(x, y, 0);
-        g = colour.channels == 3 ? colour.at(x, y, 1) : r;
-        b = colour.channels == 3 ? colour.at(x, y, 2) : r;
-      }
-      const uint32_t packed = (r << 16) | (g << 8) | b;
-      float packed_float;
-      std::memcpy(&packed_float, &packed, sizeof(float));
-      *it_rgb = packed_float;
-      Eigen::Vector3f n(0, 0, -1);
-      if (has_normals) n = Eigen::Vector3f(map.normal.at(x, y, 0), map.normal.at(x, y, 1), map.normal.at(x, y, 2));
-      *it_nx = n.x();
-      *it_ny = n.y();
-      *it_nz = n.z();
-      ++it_x, ++it_y, ++it_z, ++it_rgb, ++it_nx, ++it_ny, ++it_nz;
-    }
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (!finite(i)) continue;  // never a NaN in a cloud
+    *it_x = cloud.positions[i].x();
+    *it_y = cloud.positions[i].y();
+    *it_z = cloud.positions[i].z();
+    const auto& c = cloud.colors[i];
+    const uint32_t packed = (uint32_t{c[0]} << 16) | (uint32_t{c[1]} << 8) | c[2];
+    float packed_float;
+    std::memcpy(&packed_float, &packed, sizeof(float));
+    *it_rgb = packed_float;
+    *it_nx = cloud.normals[i].x();
+    *it_ny = cloud.normals[i].y();
+    *it_nz = cloud.normals[i].z();
+    ++it_x, ++it_y, ++it_z, ++it_rgb, ++it_nx, ++it_ny, ++it_nz;
   }
   return msg;
 }

@@ -6,18 +6,16 @@ keeps producing depth throughout."""
 import copy
 import math
 import sys
-import threading
 import time
 import unittest
 
 import rosbag
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import Image
-from std_srvs.srv import Trigger
 
 from amhmvs_mapping.msg import Keyframe, KeyframePose, KeyframePoses
+from node_watch import NodeWatch
 
 
 class BadInput(unittest.TestCase):
@@ -31,11 +29,9 @@ class BadInput(unittest.TestCase):
             for topic, msg, _ in bag.read_messages(['/camera/image_raw', '/camera/camera_info', '/camera/pose']):
                 frames.setdefault(msg.header.stamp, {})[topic.split('/')[-1]] = msg
         cls.frames = [frames[s] for s in sorted(frames)][:4]
-        cls.lock = threading.Lock()
-        cls.depth_stamps = []
-        cls.diagnostics = {}
-        rospy.Subscriber(ns + '/depth/image', Image, cls._depth, queue_size=100)
-        rospy.Subscriber('/diagnostics', DiagnosticArray, cls._diag)
+        cls.watch = NodeWatch(cls.node)
+        cls.lock = cls.watch.lock
+        cls.depth_images = cls.watch.record(ns + '/depth/image', Image)
         cls.pub = rospy.Publisher('/keyframe', Keyframe, queue_size=100)
         cls.poses_pub = rospy.Publisher(ns + '/keyframe_poses', KeyframePoses, queue_size=10)
         deadline = time.time() + 30
@@ -45,17 +41,13 @@ class BadInput(unittest.TestCase):
         cls.next_id = 0
         cls.stamp = 1000.0
 
-    @classmethod
-    def _depth(cls, msg):
-        with cls.lock:
-            cls.depth_stamps.append(msg.header.stamp.to_sec())
+    @property
+    def depth_stamps(self):
+        return [m.header.stamp.to_sec() for m in self.depth_images]
 
-    @classmethod
-    def _diag(cls, msg):
-        for status in msg.status:
-            if 'depth estimation' in status.name:
-                with cls.lock:
-                    cls.diagnostics = {kv.key: kv.value for kv in status.values}
+    @property
+    def diagnostics(self):
+        return self.watch.diagnostics
 
     def keyframe(self, index, stamp=None):
         frame = self.frames[index]
@@ -74,20 +66,13 @@ class BadInput(unittest.TestCase):
         return kf
 
     def wait_for(self, predicate, timeout=60.0):
-        deadline = time.time() + timeout
-        while time.time() < deadline:
-            with self.lock:
-                if predicate():
-                    return True
-            time.sleep(0.1)
-        return False
+        return self.watch.wait_for(predicate, timeout)
 
     def diag_int(self, key):
-        return int(self.diagnostics.get(key, '0'))
+        return self.watch.count(key)
 
     def call(self, name):
-        rospy.wait_for_service(self.node + '/' + name, timeout=10)
-        return rospy.ServiceProxy(self.node + '/' + name, Trigger)()
+        return self.watch.call(name)
 
     def test_bad_input_flood_and_services(self):
         self.assertEqual(len(self.frames), 4)

@@ -1,12 +1,14 @@
 #!/usr/bin/env python3
 """rostest checker of the mapping nodelet's outputs on a replayed bag.
 
-Records the input image stamps and every output (depth/image, depth/camera_info,
-confidence/image, depth/preview, keyframe_cloud, /diagnostics), waits until
-all frames were played and every keyframe with source views has its depth (or
-the timeout), then checks them. The first keyframe has no source view: it is
-stored as one and gets no depth, so expected_frames - 1 depth maps come out
-(every frame of the fountain bag is a keyframe: ~1.5 m between frames).
+Records the input image stamps and poses and every output (depth/image,
+depth/camera_info, confidence/image, depth/preview, keyframe_cloud, map,
+/diagnostics), waits until all frames were played and every keyframe with
+source views has its depth (or the timeout), then checks them. The first
+keyframe has no source view: it is stored as one and gets no depth, so
+expected_frames - 1 depth maps come out (every frame of the fountain bag is a
+keyframe: ~1.5 m between frames). With ~sparse_points set, the depth images
+and the global map are checked against those points (sparse_agreement.py).
 """
 import math
 import struct
@@ -18,15 +20,19 @@ import unittest
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import CameraInfo, Image, PointCloud2
 import sensor_msgs.point_cloud2 as pc2
 
+import sparse_agreement
+
 
 class Recorder:
-    def __init__(self, ns, image_topic):
+    def __init__(self, ns, image_topic, pose_topic):
         self.lock = threading.Lock()
         self.images, self.depth, self.info, self.confidence, self.preview, self.clouds = [], [], [], [], [], []
         self.diagnostics = {}
+        self.poses, self.maps = {}, []
         subs = [(image_topic, Image, self.images), (ns + '/depth/image', Image, self.depth),
                 (ns + '/depth/camera_info', CameraInfo, self.info),
                 (ns + '/confidence/image', Image, self.confidence),
@@ -34,6 +40,13 @@ class Recorder:
         self.subscribers = [rospy.Subscriber(t, cls, self._append, callback_args=store, queue_size=50,
                                              buff_size=1 << 24) for t, cls, store in subs]
         self.subscribers.append(rospy.Subscriber('/diagnostics', DiagnosticArray, self._diagnostics))
+        self.subscribers.append(rospy.Subscriber(pose_topic, PoseStamped, self._pose, queue_size=50))
+        self.subscribers.append(rospy.Subscriber(ns + '/map', PointCloud2, self._append, callback_args=self.maps,
+                                                 queue_size=5, buff_size=1 << 26))
+
+    def _pose(self, msg):
+        with self.lock:
+            self.poses[msg.header.stamp] = msg.pose
 
     def _append(self, msg, store):
         with self.lock:
@@ -60,17 +73,31 @@ class ReplayOutputs(unittest.TestCase):
         cls.min_depth = rospy.get_param('~min_depth', 4.0)
         cls.max_depth = rospy.get_param('~max_depth', 20.0)
         cls.max_image_size = rospy.get_param('~max_image_size', 256)
+        cls.min_cloud_points = rospy.get_param('~min_cloud_points', 1000)
         timeout = rospy.get_param('~timeout', 240.0)
-        rec = Recorder(cls.ns, rospy.get_param('~image_topic', '/camera/image_raw'))
+        cls.sparse_points_path = rospy.get_param('~sparse_points', '')
+        cls.depth_floors = rospy.get_param('~depth_floors', [0.0, 0.0, 0.0])
+        cls.map_floors = rospy.get_param('~map_floors', [0.0, 0.0, 0.0])
+        cls.min_map_coverage = rospy.get_param('~min_map_coverage', 0.0)
+        rec = Recorder(cls.ns, rospy.get_param('~image_topic', '/camera/image_raw'),
+                       rospy.get_param('~pose_topic', '/camera/pose'))
         start = time.time()  # wall clock: simulated time stops with the bag
         expected_depth = cls.expected_frames - 1
         while time.time() - start < timeout:
             with rec.lock:
                 done = (len(rec.images) >= cls.expected_frames and len(rec.depth) >= expected_depth
-                        and len(rec.clouds) >= expected_depth and len(rec.info) >= expected_depth)
+                        and len(rec.clouds) >= expected_depth and len(rec.info) >= expected_depth
+                        and rec.diagnostics.get('depth_maps') == str(expected_depth))
             if done:
                 break
             time.sleep(0.5)
+        # The map after the last keyframe: latched and republished each ~map_publish_period.
+        map_deadline = time.time() + 10
+        while time.time() < map_deadline:
+            with rec.lock:
+                if rec.maps and rec.maps[-1].header.stamp >= max(m.header.stamp for m in rec.depth or rec.images):
+                    break
+            time.sleep(0.2)
         time.sleep(3.0)  # late messages and one more diagnostics update
         cls.rec = rec
         cls.elapsed = time.time() - start
@@ -131,11 +158,14 @@ class ReplayOutputs(unittest.TestCase):
 
     def test_07_keyframe_clouds(self):
         self.assertEqual([m.header.stamp for m in self.rec.clouds], [m.header.stamp for m in self.rec.depth])
-        for msg in self.rec.clouds:
+        # The first keyframe with depth has no source with a depth map to be
+        # fused against: its cloud is empty; every later one has points.
+        self.assertEqual(self.rec.clouds[0].width * self.rec.clouds[0].height, 0)
+        for msg in self.rec.clouds[1:]:
             self.assertEqual(msg.header.frame_id, self.optical_frame)
             names = [f.name for f in msg.fields]
             self.assertEqual(names, ['x', 'y', 'z', 'rgb', 'normal_x', 'normal_y', 'normal_z'])
-            self.assertGreater(msg.width * msg.height, 1000)
+            self.assertGreater(msg.width * msg.height, self.min_cloud_points)
             points = list(pc2.read_points(msg, field_names=names))
             self.assertEqual(len(points), msg.width * msg.height)
             for p in points:
@@ -150,6 +180,70 @@ class ReplayOutputs(unittest.TestCase):
         self.assertEqual(diag.get('keyframes_without_sources'), '1')  # the first keyframe
         self.assertEqual(diag.get('depth_maps'), str(self.expected_frames - 1))
         self.assertEqual([k for k in diag if k.startswith('dropped')], [])
+        self.assertGreater(int(diag.get('map voxels', '0')), 0)
+
+    def cameras(self):
+        """view id (order of the image stamps) -> Camera of each depth image."""
+        stamps = sorted(m.header.stamp for m in self.rec.images)
+        infos = {m.header.stamp: m for m in self.rec.info}
+        return {stamps.index(d.header.stamp): (d, sparse_agreement.Camera(infos[d.header.stamp],
+                                                                          self.rec.poses[d.header.stamp]))
+                for d in self.rec.depth}
+
+    def agreement(self, depth_at_of_view):
+        """Pooled (observations, finite, [within 1 / 2 / 5 %]) over the depth
+        images' views; depth_at_of_view(depth msg, camera) -> depth_at(u, v)."""
+        sparse = sparse_agreement.read_sparse_points(self.sparse_points_path)
+        total, finite, within = 0, 0, [0, 0, 0]
+        for view, (depth, camera) in self.cameras().items():
+            n, f, w = sparse_agreement.agreement(depth_at_of_view(depth, camera), camera, view, sparse)
+            total, finite = total + n, finite + f
+            within = [a + b for a, b in zip(within, w)]
+        return total, finite, within
+
+    def test_09_depth_agrees_with_sparse_points(self):
+        if not self.sparse_points_path:
+            self.skipTest('no ~sparse_points')
+
+        def depth_at(depth, _):
+            values = floats(depth)
+            return lambda u, v: values[v * depth.width + u]
+        total, _, within = self.agreement(depth_at)
+        percent = [100.0 * w / total for w in within]
+        rospy.loginfo('check_outputs: depth images vs sparse points: %.1f / %.1f / %.1f %% within 1 / 2 / 5 %% '
+                      'over %d observations', percent[0], percent[1], percent[2], total)
+        self.assertGreater(total, 1000)
+        for p, floor in zip(percent, self.depth_floors):
+            self.assertGreaterEqual(p, floor)
+
+    def test_10_global_map(self):
+        self.assertTrue(self.rec.maps, 'no map received')
+        msg = self.rec.maps[-1]
+        self.assertEqual(msg.header.frame_id, 'world')
+        names = [f.name for f in msg.fields]
+        self.assertEqual(names, ['x', 'y', 'z', 'rgb', 'normal_x', 'normal_y', 'normal_z'])
+        points = list(pc2.read_points(msg, field_names=names))
+        self.assertGreater(len(points), 1000)
+        for p in points:
+            self.assertTrue(all(math.isfinite(v) for v in p))
+        if not self.sparse_points_path:
+            return
+        # The map rendered into each keyframe's camera (1 px splats): its
+        # accuracy where it covers a sparse point, and how many it covers.
+        positions = [p[:3] for p in points]
+
+        def rendered(_, camera):
+            zbuffer = sparse_agreement.render_depth(positions, camera)
+            return lambda u, v: zbuffer.get((u, v), math.nan)
+        total, covered, within = self.agreement(rendered)
+        percent = [100.0 * w / max(covered, 1) for w in within]
+        coverage = 100.0 * covered / total
+        rospy.loginfo('check_outputs: map (%d points) vs sparse points: %.1f / %.1f / %.1f %% within 1 / 2 / 5 %% '
+                      'of the %d covered observations (%.1f %% of %d)', len(points), percent[0], percent[1],
+                      percent[2], covered, coverage, total)
+        for p, floor in zip(percent, self.map_floors):
+            self.assertGreaterEqual(p, floor)
+        self.assertGreaterEqual(coverage, self.min_map_coverage)
 
 
 if __name__ == '__main__':

@@ -136,23 +136,29 @@ TEST(RosConversions, DepthOutputsAndCloud) {
   EXPECT_EQ(preview->encoding, "bgr8");
   EXPECT_FALSE(depthPreviewMsg(amhmvs::ImageF(2, 2, 1, NAN), header));
 
-  amhmvs::ImageU8 colour(4, 3, 3, 0);
-  colour.at(3, 2, 0) = 255;  // red last pixel
-  const sensor_msgs::PointCloud2Ptr cloud = keyframeCloudMsg(map, camera, colour, 0.6, header);
-  ASSERT_EQ(cloud->width * cloud->height, 9u);  // 12 - NaN depth - costly - NaN normal
+  // Clouds: one point per finite entry, fields x y z rgb normal_*.
+  amhmvs::KeyframePoints points(4);
+  for (size_t i = 0; i < points.size(); ++i) {
+    points[i].position = Eigen::Vector3f(0.5f * i, 0, 2);
+    points[i].normal = Eigen::Vector3f(0, 0, -1);
+  }
+  points[3].rgb[0] = 255;            // red last point
+  points[1].position.y() = NAN;      // left out
+  points[2].normal.x() = INFINITY;   // left out
+  const sensor_msgs::PointCloud2Ptr cloud = cloudMsg(keyframeCloud(points), header);
+  ASSERT_EQ(cloud->width * cloud->height, 2u);
   EXPECT_TRUE(cloud->is_dense);
+  EXPECT_EQ(cloud->header.frame_id, header.frame_id);
   ASSERT_EQ(cloud->fields.size(), 7u);
   EXPECT_EQ(cloud->fields[3].name, "rgb");
   EXPECT_EQ(cloud->fields[6].name, "normal_z");
   sensor_msgs::PointCloud2ConstIterator<float> x(*cloud, "x"), z(*cloud, "z"), nz(*cloud, "normal_z");
   sensor_msgs::PointCloud2ConstIterator<uint8_t> rgb(*cloud, "rgb");
-  for (size_t i = 0; i < 9; ++i, ++x, ++z, ++nz, ++rgb) {
-    EXPECT_TRUE(std::isfinite(*x));
-    EXPECT_FLOAT_EQ(z[0], 2.0f);
-    EXPECT_FLOAT_EQ(nz[0], -1.0f);
-    if (i == 8) {
-      EXPECT_FLOAT_EQ(x[0], static_cast<float>((3 - 1.5) / 100 * 2));
-      EXPECT_EQ(rgb[2], 255);  // packed 0x00RRGGBB, little endian: byte 2 is red
-    }
-  }
+  EXPECT_FLOAT_EQ(x[0], 0.0f);
+  EXPECT_FLOAT_EQ(z[0], 2.0f);
+  EXPECT_FLOAT_EQ(nz[0], -1.0f);
+  EXPECT_EQ(rgb[2], 0);
+  ++x, ++rgb;
+  EXPECT_FLOAT_EQ(x[0], 1.5f);
+  EXPECT_EQ(rgb[2], 255);  // packed 0x00RRGGBB, little endian: byte 2 is red
 }

@@ -16,6 +16,7 @@
 
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
+#include "amhmvs_mapping/mapping/voxel_map.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 
 namespace amhmvs_mapping {
@@ -35,7 +36,7 @@ geometry_msgs::Pose poseToMsg(const Eigen::Isometry3d& camera_to_world);
 // Checks that the CameraInfo matches an image of width x height (its size,
 // K with positive finite focal lengths) and returns the pinhole camera with
 // the given pose. `distorted` (optional) tells whether D has a non-zero
-// coefficient (distortion is not corrected yet).
+// coefficient (the nodelet undistorts with mapping/undistortion.h).
 std::string cameraFromMsg(const sensor_msgs::CameraInfo& info, int width, int height,
                           const Eigen::Isometry3d& camera_to_world, amhmvs::PinholeCamera* camera,
                           bool* distorted = nullptr);
@@ -50,12 +51,12 @@ sensor_msgs::ImagePtr confidenceImageMsg(const amhmvs::DepthMap& map, const std_
 // bgr8 viridis colour map of the depth over its robust (2 %..98 %) range;
 // null when the depth has no finite pixel.
 sensor_msgs::ImagePtr depthPreviewMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header);
-// Point cloud in the optical frame with fields x y z rgb normal_x normal_y
-// normal_z: the valid depth pixels (finite, > 0, finite unit normal) whose
-// cost is <= max_cost, back-projected with `camera`'s intrinsics; colours
-// from `colour` (1 or 3 channels, size of the depth map). No NaN points.
-sensor_msgs::PointCloud2Ptr keyframeCloudMsg(const amhmvs::DepthMap& map, const amhmvs::PinholeCamera& camera,
-                                             const amhmvs::ImageU8& colour, double max_cost,
-                                             const std_msgs::Header& header);
+// Point cloud with fields x y z rgb normal_x normal_y normal_z (float32; rgb
+// packed 0x00RRGGBB): one point per entry of `cloud` (the global map in the
+// fixed frame, or a keyframe's fused points in its optical frame). Entries
+// with a non-finite position or normal are left out: no NaN points.
+sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::MapCloud& cloud, const std_msgs::Header& header);
+// A keyframe's fused points (camera frame) in the cloud layout.
+amhmvs::MapCloud keyframeCloud(const amhmvs::KeyframePoints& points);
 
 }  // namespace amhmvs_mapping

@@ -1,0 +1,164 @@
+#include "amhmvs_mapping/mapping/online_mapper.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mapping/map_export.h"
+
+namespace amhmvs {
+namespace {
+
+// Each problem line of a group's validate(), prefixed with the group name.
+void appendProblems(const std::string& group, const std::string& problems, std::ostringstream* out) {
+  std::istringstream lines(problems);
+  for (std::string line; std::getline(lines, line);)
+    if (!line.empty()) *out << group << ": " << line << "\n";
+}
+
+bool hasDepthAndNormals(const StoredKeyframe& stored) {
+  return stored.state == KeyframeState::kDone && !stored.depth.depth.empty() && stored.depth.normal.channels == 3;
+}
+
+FusionView fusionView(int local_id, const StoredKeyframe& stored) {
+  FusionView view;
+  view.id = local_id;
+  view.camera = stored.keyframe.camera;
+  view.depth = stored.depth.depth;
+  view.normal = stored.depth.normal;
+  view.cost = stored.depth.cost;
+  view.color = stored.keyframe.image;
+  return view;
+}
+
+}  // namespace
+
+std::string OnlineMapperOptions::validate() const {
+  std::ostringstream out;
+  appendProblems("store", store.validate(), &out);
+  appendProblems("sources", sources.validate(), &out);
+  appendProblems("depth_range", depth_range.validate(), &out);
+  appendProblems("fusion", fusion.validate(), &out);
+  appendProblems("map", map.validate(), &out);
+  return out.str();
+}
+
+OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction estimate)
+    : options_(options), estimate_(std::move(estimate)), store_(options.store), map_(options.map) {
+  const std::string problems = options.validate();
+  if (!problems.empty()) throw InputError("online mapper options:\n" + problems);
+  if (!estimate_) throw InputError("online mapper: no estimate function");
+}
+
+KeyframeResult OnlineMapper::process(Keyframe keyframe) {
+  KeyframeResult result;
+  result.id = keyframe.id;
+  result.camera = keyframe.camera;
+  result.evicted = store_.add(std::move(keyframe));
+  const int64_t id = result.id;
+  const StoredKeyframe& stored = store_.entry(id);
+  result.selection = selectSources(store_, id, options_.sources);
+
+  if (result.selection.source_ids.empty()) {
+    // Kept as a source: done, with a depth map that has no valid pixel.
+    DepthMap none;
+    none.depth = ImageF(stored.keyframe.camera.width, stored.keyframe.camera.height, 1,
+                        std::numeric_limits<float>::quiet_NaN());
+    const std::vector<int64_t> evicted = store_.attachDepth(id, std::move(none));
+    result.evicted.insert(result.evicted.end(), evicted.begin(), evicted.end());
+    return result;
+  }
+  store_.setSources(id, result.selection.source_ids);
+  result.depth_range = estimateDepthRange(store_, id, result.selection.source_ids, options_.depth_range);
+
+  DepthProblem problem;
+  problem.reference_camera = stored.keyframe.camera;
+  problem.reference_image = toGray(stored.keyframe.image);
+  for (int64_t source : result.selection.source_ids) {
+    const Keyframe& view = store_.keyframe(source);
+    problem.source_cameras.push_back(view.camera);
+    problem.source_images.push_back(toGray(view.image));
+  }
+  problem.depth_min = result.depth_range.min;
+  problem.depth_max = result.depth_range.max;
+  try {
+    result.depth = estimate_(problem);
+  } catch (...) {
+    store_.remove(id);
+    throw;
+  }
+  result.has_depth = true;
+  std::vector<int64_t> evicted = store_.attachDepth(id, result.depth);
+  result.evicted.insert(result.evicted.end(), evicted.begin(), evicted.end());
+
+  result.points = fuse(id, result.selection.source_ids, &result.fusion_sources);
+  if (result.points.empty()) return result;
+  evicted = store_.attachPoints(id, result.points);
+  result.evicted.insert(result.evicted.end(), evicted.begin(), evicted.end());
+  result.map_update = map_.addKeyframe(id, store_.keyframe(id).cameraToWorld(), result.points);
+  ++map_revision_;
+  return result;
+}
+
+KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& source_ids, int* fusion_sources) const {
+  // Local fusion ids: the sources 0..n-1 (no sources of their own: they only
+  // support), the keyframe n.
+  std::vector<FusionView> views;
+  for (int64_t source : source_ids) {
+    if (!store_.contains(source) || !hasDepthAndNormals(store_.entry(source))) continue;
+    views.push_back(fusionView(static_cast<int>(views.size()), store_.entry(source)));
+  }
+  *fusion_sources = static_cast<int>(views.size());
+  const StoredKeyframe& stored = store_.entry(id);
+  if (views.empty() || !hasDepthAndNormals(stored)) return {};
+  FusionView reference = fusionView(static_cast<int>(views.size()), stored);
+  for (const FusionView& view : views) reference.source_ids.push_back(view.id);
+  views.push_back(std::move(reference));
+
+  FusionOptions options = options_.fusion;
+  options.min_consistent_views = std::min(options.min_consistent_views, *fusion_sources);
+  const FusionResult fused = fuseDepthMaps(views, options);
+  return toKeyframePoints(fused.views.back().points);
+}
+
+bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world) {
+  const std::string problem = validateRigidPose(camera_to_world);
+  if (!problem.empty()) throw InputError("keyframe " + std::to_string(id) + ": " + problem);
+  const bool stored = store_.contains(id);
+  if (stored) store_.updatePose(id, camera_to_world);
+  if (!map_.contains(id)) return stored;
+  map_.updatePose(id, camera_to_world);
+  ++map_revision_;
+  return true;
+}
+
+void OnlineMapper::reset() {
+  store_ = KeyframeStore(options_.store);
+  map_ = VoxelMap(options_.map);
+  ++map_revision_;
+}
+
+void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
+  const std::string problems = options.validate();
+  if (!problems.empty()) throw InputError("online mapper options:\n" + problems);
+  OnlineMapperOptions kept = options;
+  kept.store = options_.store;
+  if (options.map.leaf_size != options_.map.leaf_size) {
+    // A new voxel size: rebuild the map from the stored keyframes' points.
+    VoxelMapOptions map_options = options_.map;
+    map_options.leaf_size = options.map.leaf_size;
+    VoxelMap rebuilt(map_options);
+    for (int64_t id : map_.keyframeIds()) {
+      if (!store_.contains(id)) continue;
+      rebuilt.addKeyframe(id, map_.pose(id), store_.entry(id).points);
+    }
+    map_ = std::move(rebuilt);
+    ++map_revision_;
+  }
+  kept.map = map_.options();
+  options_ = kept;
+}
+
+}  // namespace amhmvs

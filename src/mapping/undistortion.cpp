@@ -1,0 +1,78 @@
+#include "amhmvs_mapping/mapping/undistortion.h"
+
+#include <cmath>
+
+namespace amhmvs {
+namespace {
+
+struct ModelInfo {
+  const char* name;
+  DistortionModel model;
+  size_t coefficients;
+};
+const ModelInfo kModels[] = {{"plumb_bob", DistortionModel::kPlumbBob, 5},
+                             {"rational_polynomial", DistortionModel::kRationalPolynomial, 8},
+                             {"equidistant", DistortionModel::kEquidistant, 4}};
+
+double coefficient(const Distortion& d, size_t i) { return i < d.coefficients.size() ? d.coefficients[i] : 0.0; }
+
+}  // namespace
+
+bool Distortion::isZero() const {
+  for (double c : coefficients)
+    if (c != 0) return false;
+  return true;
+}
+
+std::string parseDistortion(const std::string& model, const std::vector<double>& d, Distortion* distortion) {
+  const std::string name = model.empty() ? "plumb_bob" : model;
+  for (const ModelInfo& info : kModels) {
+    if (name != info.name) continue;
+    if (d.size() > info.coefficients)
+      return "distortion model " + name + " has " + std::to_string(info.coefficients) + " coefficients, D has " +
+             std::to_string(d.size());
+    for (double c : d)
+      if (!std::isfinite(c)) return "distortion coefficient is not finite";
+    distortion->model = info.model;
+    distortion->coefficients = d;
+    return "";
+  }
+  return "distortion model '" + model + "' is not plumb_bob, rational_polynomial or equidistant";
+}
+
+Eigen::Vector2d distortNormalized(const Distortion& d, const Eigen::Vector2d& ideal) {
+  const double x = ideal.x(), y = ideal.y(), r2 = x * x + y * y;
+  auto k = [&d](size_t i) { return coefficient(d, i); };
+  if (d.model == DistortionModel::kEquidistant) {
+    const double r = std::sqrt(r2);
+    if (r < 1e-12) return ideal;
+    const double theta = std::atan(r), t2 = theta * theta;
+    const double theta_d = theta * (1 + t2 * (k(0) + t2 * (k(1) + t2 * (k(2) + t2 * k(3)))));
+    return ideal * (theta_d / r);
+  }
+  const double radial = (1 + r2 * (k(0) + r2 * (k(1) + r2 * k(4)))) / (1 + r2 * (k(5) + r2 * (k(6) + r2 * k(7))));
+  const double p1 = k(2), p2 = k(3);
+  return {x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x), y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y};
+}
+
+ImageU8 undistortImage(const ImageU8& image, const PinholeCamera& camera, const Distortion& distortion) {
+  ImageU8 out(image.width, image.height, image.channels, 0);
+  for (int v = 0; v < image.height; ++v) {
+    for (int u = 0; u < image.width; ++u) {
+      const Eigen::Vector2d ideal((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy);
+      const Eigen::Vector2d distorted = distortNormalized(distortion, ideal);
+      const double su = camera.fx * distorted.x() + camera.cx, sv = camera.fy * distorted.y() + camera.cy;
+      const int u0 = static_cast<int>(std::floor(su)), v0 = static_cast<int>(std::floor(sv));
+      if (u0 < 0 || v0 < 0 || u0 + 1 >= image.width || v0 + 1 >= image.height) continue;
+      const double a = su - u0, b = sv - v0;
+      for (int c = 0; c < image.channels; ++c) {
+        const double value = (1 - a) * (1 - b) * image.at(u0, v0, c) + a * (1 - b) * image.at(u0 + 1, v0, c) +
+                             (1 - a) * b * image.at(u0, v0 + 1, c) + a * b * image.at(u0 + 1, v0 + 1, c);
+        out.at(u, v, c) = static_cast<uint8_t>(std::lround(value));
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace amhmvs

@@ -1,0 +1,144 @@
+#!/usr/bin/env python3
+"""rostest checker: keyframe-message mode driven by a small publisher (the
+fountain frames as amhmvs_mapping/Keyframe with their sparse points), then the
+services and loop closure: ~save_map to PLY and PCD (and a refused
+extension), a KeyframePoses update that moves every keyframe 1 m along x
+(the map must follow), a runtime voxel-size change (dynamic_reconfigure),
+~pause / ~resume, and ~reset (empty map)."""
+import copy
+import os
+import sys
+import tempfile
+import unittest
+
+import dynamic_reconfigure.client
+import rosbag
+import rospy
+import rostest
+from sensor_msgs.msg import Image, PointCloud2
+import sensor_msgs.point_cloud2 as pc2
+
+from amhmvs_mapping.msg import Keyframe, KeyframePose, KeyframePoses
+from amhmvs_mapping.srv import SaveMap
+from geometry_msgs.msg import Point
+from node_watch import NodeWatch
+import sparse_agreement
+
+KEYFRAMES = 4
+SHIFT_X = 1.0  # metres, the loop-closure correction
+
+
+def centroid(msg):
+    points = list(pc2.read_points(msg, field_names=('x', 'y', 'z')))
+    return [sum(p[i] for p in points) / len(points) for i in range(3)], len(points)
+
+
+class KeyframeServices(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('check_keyframe_services')
+        ns = rospy.get_param('~namespace', '/amhmvs')
+        cls.watch = NodeWatch(rospy.get_param('~node', '/amhmvs/mapping'))
+        cls.depth = cls.watch.record(ns + '/depth/image', Image)
+        cls.maps = cls.watch.record(ns + '/map', PointCloud2)
+        cls.pub = rospy.Publisher('/keyframe', Keyframe, queue_size=20)
+        cls.poses_pub = rospy.Publisher(ns + '/keyframe_poses', KeyframePoses, queue_size=5)
+        frames = {}
+        with rosbag.Bag(rospy.get_param('~bag')) as bag:
+            for topic, msg, _ in bag.read_messages(['/camera/image_raw', '/camera/camera_info', '/camera/pose']):
+                frames.setdefault(msg.header.stamp, {})[topic.split('/')[-1]] = msg
+        cls.frames = [frames[s] for s in sorted(frames)]
+        cls.sparse = sparse_agreement.read_sparse_points(rospy.get_param('~sparse_points'))
+        cls.watch.wait_for(lambda: cls.pub.get_num_connections() > 0 and cls.poses_pub.get_num_connections() > 0,
+                           30)
+
+    def keyframe(self, index, keyframe_id):
+        frame = self.frames[index]
+        kf = Keyframe()
+        kf.header.stamp = rospy.Time.from_sec(1000.0 + keyframe_id)
+        kf.header.frame_id = 'world'
+        kf.keyframe_id = keyframe_id
+        kf.image = frame['image_raw']
+        kf.camera_info = frame['camera_info']
+        kf.camera_to_world = copy.deepcopy(frame['pose'].pose)
+        # No depth range: it comes from these SLAM points.
+        kf.sparse_points = [Point(*p) for p, views in self.sparse if index in views]
+        return kf
+
+    def latest_map(self):
+        with self.watch.lock:
+            return self.maps[-1] if self.maps else None
+
+    def test_services_and_loop_closure(self):
+        watch = self.watch
+        for i in range(KEYFRAMES):
+            self.pub.publish(self.keyframe(i, i))
+        self.assertTrue(watch.wait_for(lambda: watch.count('depth_maps') == KEYFRAMES - 1, 120), watch.diagnostics)
+        self.assertEqual(len(self.depth), KEYFRAMES - 1)
+        self.assertTrue(watch.wait_for(lambda: self.maps and self.maps[-1].width > 1000, 10))
+        before, count_before = centroid(self.latest_map())
+
+        # Save: PLY and PCD by extension, the point count in the header.
+        folder = tempfile.mkdtemp()
+        for name, count_line in (('map.ply', 'element vertex'), ('map.pcd', 'POINTS')):
+            path = os.path.join(folder, name)
+            res = watch.call('save_map', SaveMap, path)
+            self.assertTrue(res.success, res.message)
+            with open(path, 'rb') as f:
+                header = f.read(2000).decode('ascii', 'replace')
+            line = [l for l in header.splitlines() if l.startswith(count_line)][0]
+            self.assertEqual(int(line.split()[-1]), count_before, line)
+        res = watch.call('save_map', SaveMap, os.path.join(folder, 'map.txt'))
+        self.assertFalse(res.success)
+        self.assertIn('map.txt', res.message)
+
+        # Loop closure: every keyframe 1 m along x; the map follows.
+        update = KeyframePoses()
+        update.header.frame_id = 'world'
+        for i in range(KEYFRAMES):
+            entry = KeyframePose(keyframe_id=i, camera_to_world=copy.deepcopy(self.frames[i]['pose'].pose))
+            entry.camera_to_world.position.x += SHIFT_X
+            update.poses.append(entry)
+        maps_before = len(self.maps)
+        self.poses_pub.publish(update)
+        self.assertTrue(watch.wait_for(lambda: watch.count('pose_updates_applied') == KEYFRAMES, 10),
+                        watch.diagnostics)
+        self.assertTrue(watch.wait_for(lambda: len(self.maps) > maps_before and
+                                       abs(centroid(self.maps[-1])[0][0] - before[0] - SHIFT_X) < 0.1, 10))
+        after, count_after = centroid(self.latest_map())
+        rospy.loginfo('check_keyframe_services: map of %d points moved by %s (%d points after)', count_before,
+                      [a - b for a, b in zip(after, before)], count_after)
+        leaf = rospy.get_param('~voxel_size')
+        self.assertAlmostEqual(after[0] - before[0], SHIFT_X, delta=leaf)
+        self.assertAlmostEqual(after[1] - before[1], 0.0, delta=leaf)
+        self.assertAlmostEqual(after[2] - before[2], 0.0, delta=leaf)
+        self.assertAlmostEqual(count_after, count_before, delta=0.05 * count_before)  # re-voxelised
+
+        # dynamic_reconfigure: a coarser voxel size rebuilds the map at once.
+        reconfigured = watch.count('reconfigurations')
+        maps_before = len(self.maps)
+        client = dynamic_reconfigure.client.Client(watch.node, timeout=10)
+        self.assertAlmostEqual(client.get_configuration(timeout=10)['voxel_size'], leaf)  # from the yaml
+        client.update_configuration({'voxel_size': 4 * leaf})
+        self.assertTrue(watch.wait_for(lambda: watch.count('reconfigurations') == reconfigured + 1, 10),
+                        watch.diagnostics)
+        self.assertTrue(watch.wait_for(lambda: len(self.maps) > maps_before, 10))
+        coarse = self.latest_map().width
+        rospy.loginfo('check_keyframe_services: voxel size %.2f -> %.2f m: %d -> %d map points', leaf, 4 * leaf,
+                      count_after, coarse)
+        self.assertGreater(coarse, 0)
+        self.assertLess(coarse, count_after)  # measured 1226 -> 718: coarser voxels merge points
+
+        # Pause: input ignored and counted; resume; reset: an empty map.
+        self.assertTrue(watch.call('pause').success)
+        self.pub.publish(self.keyframe(KEYFRAMES, KEYFRAMES))
+        self.assertTrue(watch.wait_for(lambda: watch.count('ignored_while_paused') == 1, 10), watch.diagnostics)
+        self.assertTrue(watch.call('resume').success)
+        self.assertTrue(watch.call('reset').success)
+        self.pub.publish(self.keyframe(KEYFRAMES, KEYFRAMES + 1))  # the reset takes effect before it
+        self.assertTrue(watch.wait_for(lambda: watch.count('keyframes_without_sources') == 2, 30), watch.diagnostics)
+        self.assertTrue(watch.wait_for(lambda: self.maps[-1].width == 0, 10))
+
+
+if __name__ == '__main__':
+    rostest.rosrun('amhmvs_mapping', 'keyframe_services', KeyframeServices, sys.argv)

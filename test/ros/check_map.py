@@ -1,0 +1,106 @@
+#!/usr/bin/env python3
+"""rostest checker of a replayed bag's keyframes and global map (plumbing and
+plausibility, no accuracy): waits until the nodelet processed
+~expected_keyframes keyframes (diagnostics: depth_maps +
+keyframes_without_sources), then checks that every depth image has the frame
+and stamp of an input image and a matching camera_info, that keyframe clouds
+and the map have no NaN point and are in the right frames, that the map is not
+empty, and (with ~bbox) that every map point lies in the box widened by
+~bbox_margin metres, or (with ~support_plane_axis) within ~bbox_margin of the
+plane the object stands on (the box's lower face on that axis): that plane is
+real geometry outside the object's box. At most ~max_fraction_elsewhere of
+the points (default 0) may be elsewhere."""
+import math
+import sys
+import unittest
+
+import rospy
+import rostest
+from sensor_msgs.msg import CameraInfo, Image, PointCloud2
+import sensor_msgs.point_cloud2 as pc2
+
+from node_watch import NodeWatch
+
+
+class MapReplay(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('check_map')
+        ns = rospy.get_param('~namespace', '/amhmvs')
+        cls.expected = rospy.get_param('~expected_keyframes')
+        cls.optical_frame = rospy.get_param('~optical_frame', 'camera_optical')
+        cls.fixed_frame = rospy.get_param('~fixed_frame', 'world')
+        cls.bbox = rospy.get_param('~bbox', [])
+        cls.margin = rospy.get_param('~bbox_margin', 0.0)
+        cls.support_axis = rospy.get_param('~support_plane_axis', -1)  # 0 x, 1 y, 2 z; -1 none
+        cls.max_fraction_elsewhere = rospy.get_param('~max_fraction_elsewhere', 0.0)
+        cls.min_map_points = rospy.get_param('~min_map_points', 100)
+        cls.watch = watch = NodeWatch(rospy.get_param('~node', '/amhmvs/mapping'))
+        cls.images = watch.record(rospy.get_param('~image_topic', '/camera/image_raw'), Image)
+        cls.depth = watch.record(ns + '/depth/image', Image)
+        cls.info = watch.record(ns + '/depth/camera_info', CameraInfo)
+        cls.clouds = watch.record(ns + '/keyframe_cloud', PointCloud2)
+        cls.maps = watch.record(ns + '/map', PointCloud2)
+
+        def processed():
+            return watch.count('depth_maps') + watch.count('keyframes_without_sources') >= cls.expected \
+                and watch.diagnostics.get('queued') == '0'
+        cls.done = watch.wait_for(processed, rospy.get_param('~timeout', 240.0))
+        maps_then = len(cls.maps)
+        watch.wait_for(lambda: len(cls.maps) > maps_then, 10.0)  # the map after the last keyframe
+        cls.diagnostics = watch.diagnostics
+        rospy.loginfo('check_map: %d images, %d depth, %d clouds, %d maps; diagnostics %s', len(cls.images),
+                      len(cls.depth), len(cls.clouds), len(cls.maps), cls.diagnostics)
+
+    def test_01_all_keyframes_processed_nothing_dropped(self):
+        self.assertTrue(self.done, str(self.diagnostics))
+        self.assertEqual(int(self.diagnostics.get('keyframes_received', 0)), self.expected)
+        self.assertEqual([k for k in self.diagnostics if k.startswith('dropped')], [])
+        self.assertGreater(len(self.depth), 0)
+
+    def test_02_depth_frames_stamps_and_camera_info(self):
+        stamps = set(m.header.stamp for m in self.images)
+        infos = {m.header.stamp: m for m in self.info}
+        for depth in self.depth:
+            self.assertEqual(depth.header.frame_id, self.optical_frame)
+            self.assertIn(depth.header.stamp, stamps)
+            self.assertEqual(depth.encoding, '32FC1')
+            info = infos[depth.header.stamp]
+            self.assertEqual((info.width, info.height), (depth.width, depth.height))
+            self.assertEqual(info.header.frame_id, self.optical_frame)
+            self.assertGreater(info.K[0], 0)
+
+    def test_03_clouds_finite_in_their_frames(self):
+        self.assertEqual(len(self.clouds), len(self.depth))
+        for msg in self.clouds:
+            self.assertEqual(msg.header.frame_id, self.optical_frame)
+            for p in pc2.read_points(msg, field_names=('x', 'y', 'z', 'normal_x', 'normal_y', 'normal_z')):
+                self.assertTrue(all(math.isfinite(v) for v in p))
+
+    def test_04_map(self):
+        self.assertTrue(self.maps, 'no map received')
+        msg = self.maps[-1]
+        self.assertEqual(msg.header.frame_id, self.fixed_frame)
+        points = list(pc2.read_points(msg, field_names=('x', 'y', 'z')))
+        self.assertGreaterEqual(len(points), self.min_map_points)
+        for p in points:
+            self.assertTrue(all(math.isfinite(v) for v in p))
+        if not self.bbox:
+            return
+        lo = [v - self.margin for v in self.bbox[:3]]
+        hi = [v + self.margin for v in self.bbox[3:]]
+        def on_support_plane(p):
+            return self.support_axis >= 0 and abs(p[self.support_axis] - self.bbox[self.support_axis]) <= self.margin
+        in_box = sum(1 for p in points if all(lo[i] <= p[i] <= hi[i] for i in range(3)))
+        outside = [p for p in points if not all(lo[i] <= p[i] <= hi[i] for i in range(3)) and not on_support_plane(p)]
+        distances = sorted(math.sqrt(sum(max(lo[i] - p[i], 0, p[i] - hi[i]) ** 2 for i in range(3)))
+                           for p in outside)
+        rospy.loginfo('check_map: %d map points, %d in the box widened by %.3f m, %d on the support plane, %d '
+                      'elsewhere (distance to the box: median %.3f m, max %.3f m)', len(points), in_box, self.margin,
+                      len(points) - in_box - len(outside), len(outside),
+                      distances[len(distances) // 2] if distances else 0, distances[-1] if distances else 0)
+        self.assertLessEqual(len(outside), self.max_fraction_elsewhere * len(points), outside[:10])
+
+
+if __name__ == '__main__':
+    rostest.rosrun('amhmvs_mapping', 'check_map', MapReplay, sys.argv)
