@@ -58,8 +58,11 @@ export ROS_HOME=$out/ros_home
 # A master of our own on a free port: no clash with a running roscore.
 port=$(python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')
 export ROS_MASTER_URI=http://localhost:$port
+# The console gets the progress lines, the summary, warnings and errors; the
+# whole roslaunch output goes to mapping.log.
 roslaunch -p "$port" amhmvs_mapping demo.launch bag:="$out/sequence.bag" output_dir:="$out" \
-  expected_frames:="$views" timeout:="$timeout" rviz:="$rviz" 2>&1 | tee "$out/mapping.log"
+  expected_frames:="$views" timeout:="$timeout" rviz:="$rviz" 2>&1 | tee "$out/mapping.log" |
+  grep --line-buffered -E '^(keyframe [0-9]|== |keyframes processed|time per|depth accuracy|map|depth images)|WARN|ERROR' || true
 if ! grep -q '"completed": true' "$out/summary.json" 2>/dev/null; then
   echo "demo.sh: the mapping run did not complete (log: $out/mapping.log)" >&2
   exit 1

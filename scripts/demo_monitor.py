@@ -190,6 +190,10 @@ class DemoMonitor:
     def transform_ready_clouds(self):
         waiting = []
         for msg in self.pending_clouds:
+            key = stamp_key(msg.header.stamp)
+            if key not in self.ground_truth or key not in self.camera_info:  # needed for the surface check
+                waiting.append(msg)
+                continue
             try:
                 transform = self.tf_buffer.lookup_transform(self.fixed_frame, msg.header.frame_id, msg.header.stamp)
             except (tf2_ros.LookupException, tf2_ros.ExtrapolationException, tf2_ros.ConnectivityException):
@@ -207,8 +211,8 @@ class DemoMonitor:
     def check_against_ground_truth(self, xyz, msg):
         """Points of one keyframe cloud (optical frame) against that keyframe's true depth."""
         key = stamp_key(msg.header.stamp)
-        truth, info = self.ground_truth.get(key), self.camera_info.get(key)
-        if truth is None or info is None or len(xyz) == 0:
+        truth, info = self.ground_truth[key], self.camera_info[key]
+        if len(xyz) == 0:
             return
         # Intrinsics of the depth image, rescaled to the ground truth's size.
         sx, sy = truth.shape[1] / info.width, truth.shape[0] / info.height

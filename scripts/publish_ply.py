@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Publishes a PLY cloud (as written by the demo) once, latched, as a
-PointCloud2 with x y z rgb in ~frame_id (default world) on `cloud`; then
-spins until shut down (for rviz pictures of a saved map).
+PointCloud2 with x y z rgb in ~frame_id (default world) on `cloud`, with a
+static tf that makes ~frame_id known; then spins until shut down (for rviz
+pictures of a saved map).
 
 usage: publish_ply.py MAP.ply [_frame_id:=world] [cloud:=/topic]
 """
@@ -10,6 +11,8 @@ import sys
 
 import numpy as np
 import rospy
+import tf2_ros
+from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import PointCloud2, PointField
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -37,7 +40,13 @@ def main():
     rospy.init_node("publish_ply", anonymous=True)
     xyz, rgb = read_ply(argv[1])
     publisher = rospy.Publisher("cloud", PointCloud2, queue_size=1, latch=True)
-    publisher.publish(cloud_msg(xyz, rgb, rospy.get_param("~frame_id", "world")))
+    msg_frame = rospy.get_param("~frame_id", "world")
+    publisher.publish(cloud_msg(xyz, rgb, msg_frame))
+    # rviz warns about a fixed frame that tf does not know: announce it.
+    frame = TransformStamped(child_frame_id=msg_frame + "_ply")
+    frame.header.frame_id, frame.header.stamp, frame.transform.rotation.w = msg_frame, rospy.Time.now(), 1.0
+    broadcaster = tf2_ros.StaticTransformBroadcaster()
+    broadcaster.sendTransform(frame)
     rospy.loginfo("published %d points of %s on %s", len(xyz), argv[1], publisher.resolved_name)
     rospy.spin()
 
