@@ -10,7 +10,8 @@
 #   --views N        frames of the sequence (default 10)
 #   --size WxH       image size (default 320x240)
 #   --seed S         scene and trajectory seed (default 1)
-#   --rviz           also open rviz with the shipped config (needs a display)
+#   --rviz           also open rviz with the shipped config (needs a display);
+#                    it stays open after the summary: close it to go on
 #   --no-snapshot    skip the headless rviz picture
 #   --skip-build     do not install or build when the programs are already built
 #   --timeout S      wall seconds the mapping may take (default 900)
@@ -30,13 +31,17 @@ while [ $# -gt 0 ]; do
     --no-snapshot) snapshot=false; shift ;;
     --skip-build) skip_build=true; shift ;;
     --timeout) timeout=$2; shift 2 ;;
-    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;;
     -*) echo "demo.sh: unknown option $1 (--help lists them)" >&2; exit 2 ;;
     *) out=$1; shift ;;
   esac
 done
 if ! [[ $size =~ ^([0-9]+)x([0-9]+)$ ]]; then echo "demo.sh: --size must be WxH, e.g. 320x240" >&2; exit 2; fi
 width=${BASH_REMATCH[1]} height=${BASH_REMATCH[2]}
+if [ "$rviz" = true ] && [ -z "${DISPLAY:-}" ]; then
+  echo "demo.sh: --rviz needs a display (DISPLAY is not set); without it the demo runs headless" >&2
+  exit 2
+fi
 out=$(mkdir -p "$out" && cd "$out" && pwd)
 
 if [ "$skip_build" = false ] || [ ! -x "$bin/amhmvs_mapping_node" ]; then
@@ -58,11 +63,14 @@ export ROS_HOME=$out/ros_home
 # A master of our own on a free port: no clash with a running roscore.
 port=$(python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')
 export ROS_MASTER_URI=http://localhost:$port
+# rviz (--rviz): the shipped config, its view moved onto the room.
+python3 "$here/scripts/room_view_rviz_config.py" "$here/rviz/amhmvs_mapping.rviz" "$out/rviz_live.rviz"
 # The console gets the progress lines, the summary, warnings and errors; the
 # whole roslaunch output goes to mapping.log.
 roslaunch -p "$port" amhmvs_mapping demo.launch bag:="$out/sequence.bag" output_dir:="$out" \
-  expected_frames:="$views" timeout:="$timeout" rviz:="$rviz" 2>&1 | tee "$out/mapping.log" |
-  grep --line-buffered -E '^(keyframe [0-9]|== |keyframes processed|time per|depth accuracy|map|depth images)|WARN|ERROR' || true
+  expected_frames:="$views" timeout:="$timeout" rviz:="$rviz" rviz_config:="$out/rviz_live.rviz" 2>&1 |
+  tee "$out/mapping.log" |
+  grep --line-buffered -E '^(keyframe [0-9]|== |keyframes processed|time per|depth accuracy|map|depth images)|stays open|WARN|ERROR' || true
 if ! grep -q '"completed": true' "$out/summary.json" 2>/dev/null; then
   echo "demo.sh: the mapping run did not complete (log: $out/mapping.log)" >&2
   exit 1

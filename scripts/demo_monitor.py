@@ -19,7 +19,12 @@ Parameters:
   ~timeout          wall seconds before giving up (exit 1), default 900
   ~fixed_frame      default world
   ~map_topic        default "" (accumulate keyframe clouds)
+  ~stay_while_node  default "": after the summary, keep running (and so keep the
+                    launch up, this node being required) until this node ends,
+                    e.g. /rviz: the user closes rviz to end the demo
 """
+import contextlib
+import io
 import json
 import os
 import sys
@@ -27,6 +32,7 @@ import threading
 import time
 
 import numpy as np
+import rosnode
 import rospy
 import tf2_ros
 from diagnostic_msgs.msg import DiagnosticArray
@@ -297,6 +303,12 @@ def summary_text(s):
     ])
 
 
+def node_alive(name):
+    """The node answers (a killed node can stay registered with the master)."""
+    with contextlib.redirect_stdout(io.StringIO()):  # rosnode_ping reports on stdout
+        return rosnode.rosnode_ping(name, max_count=1, verbose=False)
+
+
 def main():
     rospy.init_node("demo_monitor")
     monitor = DemoMonitor()
@@ -317,6 +329,11 @@ def main():
         f.write(text + "\n")
     with open(os.path.join(monitor.output_dir, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
+    stay_while = rospy.get_param("~stay_while_node", "")
+    if stay_while and completed:
+        print(f"{stay_while} stays open: close it to end the demo", flush=True)
+        while not rospy.is_shutdown() and node_alive(stay_while):
+            time.sleep(1.0)
     sys.exit(0 if completed else 1)
 
 

@@ -22,7 +22,7 @@ packages=(
   python3-sensor-msgs python3-geometry-msgs python3-nav-msgs
   libeigen3-dev libopencv-dev libgtest-dev googletest python3-numpy python3-opencv
   colmap
-  rviz xvfb imagemagick libgl1-mesa-dri python3-tf2-msgs python3-diagnostic-msgs
+  rviz xvfb imagemagick libgl1-mesa-dri python3-tf2-msgs python3-diagnostic-msgs python3-rosnode python3-yaml
 )
 
 missing=()

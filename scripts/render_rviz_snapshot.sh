@@ -11,7 +11,7 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-[ $# -ge 2 ] || { sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; exit 2; }
+[ $# -ge 2 ] || { awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0" >&2; exit 2; }
 map=$1 png=$2 config=${3:-$here/rviz/demo_map.rviz}
 [ -f "$map" ] || { echo "render_rviz_snapshot: no map at $map" >&2; exit 1; }
 timeout_s=${AMHMVS_SNAPSHOT_TIMEOUT:-120}
