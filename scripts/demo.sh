@@ -36,8 +36,6 @@ while [ $# -gt 0 ]; do
     *) out=$1; shift ;;
   esac
 done
-if ! [[ $size =~ ^([0-9]+)x([0-9]+)$ ]]; then echo "demo.sh: --size must be WxH, e.g. 320x240" >&2; exit 2; fi
-width=${BASH_REMATCH[1]} height=${BASH_REMATCH[2]}
 if [ "$rviz" = true ] && [ -z "${DISPLAY:-}" ]; then
   echo "demo.sh: --rviz needs a display (DISPLAY is not set); without it the demo runs headless" >&2
   exit 2
@@ -49,10 +47,9 @@ if [ "$skip_build" = false ] || [ ! -x "$bin/amhmvs_mapping_node" ]; then
   "$here/scripts/build.sh"
 fi
 
-echo "== rendering the synthetic sequence ($views frames, ${width}x$height, seed $seed) =="
-rm -rf "$out/scene" "$out/depth" "$out/map.ply" "$out/summary.txt" "$out/summary.json" "$out/map_rviz.png"
-"$bin/amhmvs_synthetic" "$out/scene" --scene room --views "$views" --width "$width" --height "$height" --seed "$seed"
-python3 "$here/scripts/dense_folder_to_bag.py" "$out/scene" "$out/sequence.bag"
+echo "== rendering the synthetic sequence ($views frames, $size, seed $seed) =="
+rm -rf "$out/depth" "$out/map.ply" "$out/summary.txt" "$out/summary.json" "$out/map_rviz.png"
+"$here/scripts/make_synthetic_sequence.sh" "$out" --views "$views" --size "$size" --seed "$seed"
 
 echo "== mapping: roslaunch amhmvs_mapping demo.launch (rosbag play, nodelet, monitor) =="
 set +u
