@@ -15,13 +15,15 @@
 #   --no-snapshot    skip the headless rviz picture
 #   --skip-build     do not install or build when the programs are already built
 #   --timeout S      wall seconds the mapping may take (default 900)
+#   --map-topic T    save map.ply from this global map PointCloud2 (in the fixed
+#                    frame) instead of from the accumulated keyframe clouds
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:/usr/local/cuda/bin:$PATH
 build=${AMHMVS_BUILD_DIR:-$here/build}
 bin=$build/devel/lib/amhmvs_mapping
 
-out=$here/out/demo views=10 size=320x240 seed=1 rviz=false snapshot=true skip_build=false timeout=900
+out=$here/out/demo views=10 size=320x240 seed=1 rviz=false snapshot=true skip_build=false timeout=900 map_topic=""
 while [ $# -gt 0 ]; do
   case $1 in
     --views) views=$2; shift 2 ;;
@@ -31,6 +33,7 @@ while [ $# -gt 0 ]; do
     --no-snapshot) snapshot=false; shift ;;
     --skip-build) skip_build=true; shift ;;
     --timeout) timeout=$2; shift 2 ;;
+    --map-topic) map_topic=$2; shift 2 ;;
     -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;;
     -*) echo "demo.sh: unknown option $1 (--help lists them)" >&2; exit 2 ;;
     *) out=$1; shift ;;
@@ -65,7 +68,8 @@ python3 "$here/scripts/room_view_rviz_config.py" "$here/rviz/amhmvs_mapping.rviz
 # The console gets the progress lines, the summary, warnings and errors; the
 # whole roslaunch output goes to mapping.log.
 roslaunch -p "$port" amhmvs_mapping demo.launch bag:="$out/sequence.bag" output_dir:="$out" \
-  expected_frames:="$views" timeout:="$timeout" rviz:="$rviz" rviz_config:="$out/rviz_live.rviz" 2>&1 |
+  expected_frames:="$views" timeout:="$timeout" rviz:="$rviz" rviz_config:="$out/rviz_live.rviz" \
+  map_topic:="$map_topic" 2>&1 |
   tee "$out/mapping.log" |
   grep --line-buffered -E '^(keyframe [0-9]|== |keyframes processed|time per|depth accuracy|map|depth images)|stays open|WARN|ERROR' || true
 if ! grep -q '"completed": true' "$out/summary.json" 2>/dev/null; then
