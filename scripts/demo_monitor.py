@@ -95,9 +95,9 @@ class DemoMonitor:
 
         self.lock = threading.Lock()
         self.ground_truth = {}      # stamp -> depth array
-        self.depth = {}             # stamp -> (depth array, camera_info or None), until evaluated
+        self.depth = {}             # stamp -> (depth array, wall ms since the previous one), until evaluated
         self.camera_info = {}       # stamp -> CameraInfo of the depth image
-        self.pending_clouds = []    # clouds waiting for their tf
+        self.pending_clouds = []    # clouds waiting for their tf, ground truth and camera_info
         self.evaluated = []         # per keyframe: stamp, counts, total
         self.progress = {}          # stamp -> progress line waiting for the keyframe's cloud
         self.mapped = set()         # stamps of the clouds in the map
@@ -114,8 +114,8 @@ class DemoMonitor:
 
         self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(3600))
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
-        # Outputs first, then the bag's topics: rosbag play --wait-for-subscribers
-        # starts only once every bag topic has a subscriber.
+        # The ground truth last: rosbag play --wait-for-subscribers starts once
+        # every bag topic has a subscriber, and by then the outputs have theirs.
         rospy.Subscriber("diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=20)
         rospy.Subscriber("depth_camera_info", CameraInfo, self.on_camera_info, queue_size=100)
         rospy.Subscriber("depth", Image, self.on_depth, queue_size=100, buff_size=2 ** 24)

@@ -27,6 +27,13 @@ std::string readText(const fs::path& path) {
   return text.str();
 }
 
+// Group 1 of every match of `pattern` in `text`.
+std::vector<std::string> captures(const std::string& text, const std::regex& pattern) {
+  std::vector<std::string> out;
+  for (std::sregex_iterator it(text.begin(), text.end(), pattern), end; it != end; ++it) out.push_back((*it)[1]);
+  return out;
+}
+
 struct KnownNames {
   std::set<std::string> communication;     // topics and services, relative as in the code ("depth/image")
   std::set<std::string> private_services;  // advertised on the private node handle ("reset")
@@ -37,8 +44,8 @@ struct KnownNames {
 
 // First string literal of every statement that advertises or subscribes.
 void addCommunicationNames(const std::string& code, KnownNames* known) {
-  static const std::regex call(
-      R"((advertiseService|advertiseCamera|advertise|subscribe|Subscriber(Filter)?\b)(<[^;(]*>)?\s*\([^;"]*"([^"]+)\")");
+  static const std::regex call(R"((advertiseService|advertiseCamera|advertise|subscribe|Subscriber(Filter)?\b))"
+                               R"((<[^;(]*>)?\s*\([^;"]*"([^"]+)\")");
   static const std::regex compared(R"([!=]=\s*"([^"]+)\")");
   for (std::sregex_iterator it(code.begin(), code.end(), call), end; it != end; ++it) {
     const std::string name = (*it)[4];
@@ -53,7 +60,7 @@ void addCommunicationNames(const std::string& code, KnownNames* known) {
       known->private_services.insert(name);
     }
   }
-  for (std::sregex_iterator it(code.begin(), code.end(), compared), end; it != end; ++it) known->words.insert((*it)[1]);
+  for (const std::string& value : captures(code, compared)) known->words.insert(value);
   if (code.find("diagnostic_updater::Updater") != std::string::npos) known->communication.insert("/diagnostics");
 }
 
@@ -81,15 +88,14 @@ KnownNames collectKnownNames(const fs::path& root) {
   }
   addYamlKeys(readText(root / "config/mapping.yaml"), &known);
   for (const char* folder : {"msg", "srv"}) {
-    for (const auto& entry : fs::directory_iterator(root / folder)) known.types.insert("amhmvs_mapping/" + entry.path().stem().string());
+    for (const auto& entry : fs::directory_iterator(root / folder))
+      known.types.insert("amhmvs_mapping/" + entry.path().stem().string());
   }
   static const std::regex plugin(R"(<class name="(amhmvs_mapping/\w+)\")");
-  const std::string plugins = readText(root / "nodelet_plugins.xml");
-  for (std::sregex_iterator it(plugins.begin(), plugins.end(), plugin), end; it != end; ++it) known.types.insert((*it)[1]);
   static const std::regex executable(R"(add_executable\((\w+))"), ns(R"(<arg name="ns" default="(\w+)\")");
-  const std::string cmake = readText(root / "CMakeLists.txt"), launch = readText(root / "launch/mapping.launch");
-  for (std::sregex_iterator it(cmake.begin(), cmake.end(), executable), end; it != end; ++it) known.words.insert((*it)[1]);
-  for (std::sregex_iterator it(launch.begin(), launch.end(), ns), end; it != end; ++it) known.words.insert("/" + std::string((*it)[1]));
+  for (const std::string& type : captures(readText(root / "nodelet_plugins.xml"), plugin)) known.types.insert(type);
+  for (const std::string& program : captures(readText(root / "CMakeLists.txt"), executable)) known.words.insert(program);
+  for (const std::string& name : captures(readText(root / "launch/mapping.launch"), ns)) known.words.insert("/" + name);
   return known;
 }
 
@@ -109,7 +115,7 @@ std::vector<std::string> unknownNames(const std::string& text, const KnownNames&
   for (std::sregex_iterator it(text.begin(), text.end(), backticked), end; it != end; ++it) {
     const std::string token = (*it)[1];
     if (std::regex_match(token, type_name)) {
-      if (!known.types.count(token)) unknown.push_back(token + ": no msg/ or srv/ file nor nodelet plugin of that name");
+      if (!known.types.count(token)) unknown.push_back(token + ": no msg/, srv/ file or nodelet plugin of that name");
     } else if (token[0] == '~' && std::regex_match(token.substr(1), ros_name)) {
       const std::string name = token.substr(1);
       const bool prefix = name.back() == '/' && known.parameters.lower_bound(name) != known.parameters.end() &&
