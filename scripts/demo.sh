@@ -3,7 +3,7 @@
 # synthetic indoor sequence with exact ground truth (no download), writes it as
 # a ROS bag, plays it through the mapping nodelet with roslaunch + rosbag play
 # (headless; CUDA when usable, else the CPU at 320x240), prints a line per
-# keyframe and a summary, and writes the fused map (PLY), colour-mapped depth
+# keyframe and a summary, and writes the map (PLY), colour-mapped depth
 # images and, when Xvfb is installed, a PNG of the map as rviz shows it.
 #
 # usage: scripts/demo.sh [OUT_DIR] [options]      (OUT_DIR default: ./out/demo)
@@ -89,7 +89,7 @@ fi
 echo
 echo "demo outputs in $out:"
 echo "  summary.txt, summary.json   keyframes, ms per keyframe, depth accuracy, map size"
-echo "  map.ply                     the fused map (keyframe clouds in the world frame)"
+echo "  map.ply                     the map: the keyframe clouds in the world frame (not fused)"
 echo "  depth/NNNN.png              colour-mapped depth per keyframe: estimate | ground truth"
 [ -f "$out/map_rviz.png" ] && echo "  map_rviz.png                the map as rviz shows it"
 echo "  sequence.bag, scene/        the synthetic sequence (bag with /camera/depth_gt; MVSNet dense folder)"

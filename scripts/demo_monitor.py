@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Demo monitor: watches the mapping nodelet's outputs while a bag with
 ground-truth depth plays, prints one progress line per keyframe, and at the
-end writes the fused map (PLY), colour-mapped depth images and a summary.
+end writes the map (PLY), colour-mapped depth images and a summary.
 
 Subscribes (remap as needed):
   depth, depth_camera_info  the nodelet's depth/image (32FC1) and its camera_info
