@@ -1,21 +1,95 @@
 #!/usr/bin/env bash
-# First run: installs what is missing, builds, renders the built-in synthetic
-# room (no download), estimates a depth map per view with AMHMVS (on the GPU if
-# there is one, else on the CPU) and reports accuracy against the exact
-# ground truth. Outputs go to OUT (default: ./out/demo).
+# The README's first command. Installs what is missing, builds, renders a
+# synthetic indoor sequence with exact ground truth (no download), writes it as
+# a ROS bag, plays it through the mapping nodelet with roslaunch + rosbag play
+# (headless; CUDA when usable, else the CPU at 320x240), prints a line per
+# keyframe and a summary, and writes the map (PLY), colour-mapped depth
+# images and, when Xvfb is installed, a PNG of the map as rviz shows it.
+#
+# usage: scripts/demo.sh [OUT_DIR] [options]      (OUT_DIR default: ./out/demo)
+#   --views N        frames of the sequence (default 10)
+#   --size WxH       image size (default 320x240)
+#   --seed S         scene and trajectory seed (default 1)
+#   --rviz           also open rviz with the shipped config (needs a display);
+#                    it stays open after the summary: close it to go on
+#   --no-snapshot    skip the headless rviz picture
+#   --skip-build     do not install or build when the programs are already built
+#   --timeout S      wall seconds the mapping may take (default 900)
+#   --map-topic T    save map.ply from this global map PointCloud2 (in the fixed
+#                    frame) instead of from the accumulated keyframe clouds
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
-out=${1:-$here/out/demo}
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:/usr/local/cuda/bin:$PATH
 build=${AMHMVS_BUILD_DIR:-$here/build}
 bin=$build/devel/lib/amhmvs_mapping
 
-"$here/scripts/install_dependencies.sh"
-"$here/scripts/build.sh"
-rm -rf "$out"
-"$bin/amhmvs_synthetic" "$out/scene" --scene room --views 8 --width 320 --height 240
-"$bin/amhmvs_depth" "$out/scene" "$out/depth" --num_sources 4 --ground_truth "$out/scene/depth_gt"
+out=$here/out/demo views=10 size=320x240 seed=1 rviz=false snapshot=true skip_build=false timeout=900 map_topic=""
+while [ $# -gt 0 ]; do
+  case $1 in
+    --views) views=$2; shift 2 ;;
+    --size) size=$2; shift 2 ;;
+    --seed) seed=$2; shift 2 ;;
+    --rviz) rviz=true; shift ;;
+    --no-snapshot) snapshot=false; shift ;;
+    --skip-build) skip_build=true; shift ;;
+    --timeout) timeout=$2; shift 2 ;;
+    --map-topic) map_topic=$2; shift 2 ;;
+    -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;;
+    -*) echo "demo.sh: unknown option $1 (--help lists them)" >&2; exit 2 ;;
+    *) out=$1; shift ;;
+  esac
+done
+if [ "$rviz" = true ] && [ -z "${DISPLAY:-}" ]; then
+  echo "demo.sh: --rviz needs a display (DISPLAY is not set); without it the demo runs headless" >&2
+  exit 2
+fi
+out=$(mkdir -p "$out" && cd "$out" && pwd)
+
+if [ "$skip_build" = false ] || [ ! -x "$bin/amhmvs_mapping_node" ]; then
+  "$here/scripts/install_dependencies.sh"
+  "$here/scripts/build.sh"
+fi
+
+echo "== rendering the synthetic sequence ($views frames, $size, seed $seed) =="
+rm -rf "$out/depth" "$out/map.ply" "$out/summary.txt" "$out/summary.json" "$out/map_rviz.png"
+"$here/scripts/make_synthetic_sequence.sh" "$out" --views "$views" --size "$size" --seed "$seed"
+
+echo "== mapping: roslaunch amhmvs_mapping demo.launch (rosbag play, nodelet, monitor) =="
+set +u
+source "$build/devel/setup.bash"
+set -u
+export ROS_PACKAGE_PATH=$here${ROS_PACKAGE_PATH:+:$ROS_PACKAGE_PATH}
+export ROS_HOME=$out/ros_home
+# A master of our own on a free port: no clash with a running roscore.
+port=$(python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')
+export ROS_MASTER_URI=http://localhost:$port
+# rviz (--rviz): the shipped config, its view moved onto the room.
+python3 "$here/scripts/room_view_rviz_config.py" "$here/rviz/amhmvs_mapping.rviz" "$out/rviz_live.rviz"
+# The console gets the progress lines, the summary, warnings and errors; the
+# whole roslaunch output goes to mapping.log.
+roslaunch -p "$port" amhmvs_mapping demo.launch bag:="$out/sequence.bag" output_dir:="$out" \
+  expected_frames:="$views" timeout:="$timeout" rviz:="$rviz" rviz_config:="$out/rviz_live.rviz" \
+  map_topic:="$map_topic" 2>&1 |
+  tee "$out/mapping.log" |
+  grep --line-buffered -E '^(keyframe [0-9]|== |keyframes processed|time per|depth accuracy|map|depth images)|stays open|WARN|ERROR' || true
+if ! grep -q '"completed": true' "$out/summary.json" 2>/dev/null; then
+  echo "demo.sh: the mapping run did not complete (log: $out/mapping.log)" >&2
+  exit 1
+fi
+
+if [ "$snapshot" = true ]; then
+  if command -v Xvfb >/dev/null && command -v rviz >/dev/null; then
+    echo "== rviz picture of the map (headless) =="
+    "$here/scripts/render_rviz_snapshot.sh" "$out/map.ply" "$out/map_rviz.png"
+  else
+    echo "(no rviz picture: install xvfb and rviz, or run scripts/install_dependencies.sh)"
+  fi
+fi
+
 echo
 echo "demo outputs in $out:"
-echo "  $out/scene/       the synthetic views (MVSNet dense folder, ground truth in depth_gt/)"
-echo "  $out/depth/NNNNNNNN/depth.png   colour-mapped depth maps (depth.pfm: metres)"
+echo "  summary.txt, summary.json   keyframes, ms per keyframe, depth accuracy, map size"
+echo "  map.ply                     the map: the keyframe clouds in the world frame (not fused)"
+echo "  depth/NNNN.png              colour-mapped depth per keyframe: estimate | ground truth"
+[ -f "$out/map_rviz.png" ] && echo "  map_rviz.png                the map as rviz shows it"
+echo "  sequence.bag, scene/        the synthetic sequence (bag with /camera/depth_gt; MVSNet dense folder)"

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages that amhmvs_mapping needs (ROS 1 from
 # Debian's own packages, Eigen, OpenCV, PCL, gtest, COLMAP for the COLMAP
-# input tests). Installs only what is missing; needs root (or sudo).
+# input tests; rviz, Xvfb and ImageMagick for the demo's headless rviz
+# picture). Installs only what is missing; needs root (or sudo).
 set -euo pipefail
 
 packages=(
@@ -21,6 +22,7 @@ packages=(
   python3-sensor-msgs python3-geometry-msgs python3-nav-msgs
   libeigen3-dev libopencv-dev libgtest-dev googletest python3-numpy python3-opencv
   colmap
+  rviz xvfb imagemagick libgl1-mesa-dri python3-tf2-msgs python3-diagnostic-msgs python3-rosnode python3-yaml
 )
 
 missing=()

@@ -1,0 +1,65 @@
+"""Files the demo writes: binary PLY clouds and colour-mapped depth images."""
+import cv2
+import numpy as np
+
+
+def write_ply(path, xyz, rgb):
+    """Binary little-endian PLY with float x y z and uchar red green blue."""
+    vertex = np.empty(len(xyz), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
+                                       ("red", "u1"), ("green", "u1"), ("blue", "u1")])
+    for i, name in enumerate("xyz"):
+        vertex[name] = xyz[:, i]
+    for i, name in enumerate(("red", "green", "blue")):
+        vertex[name] = rgb[:, i]
+    header = ("ply\nformat binary_little_endian 1.0\n"
+              f"element vertex {len(vertex)}\n"
+              "property float x\nproperty float y\nproperty float z\n"
+              "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n")
+    with open(path, "wb") as f:
+        f.write(header.encode("ascii"))
+        f.write(vertex.tobytes())
+
+
+def read_ply(path):
+    """(xyz float64 N x 3, rgb uint8 N x 3) of a binary little-endian PLY whose
+    vertices hold float x y z and uchar red green blue among other properties."""
+    types = {"float": "<f4", "float32": "<f4", "double": "<f8", "uchar": "u1", "uint8": "u1",
+             "int": "<i4", "uint": "<u4", "short": "<i2", "ushort": "<u2", "char": "i1"}
+    with open(path, "rb") as f:
+        if f.readline().strip() != b"ply":
+            raise ValueError(f"{path}: not a PLY file")
+        fields, count, in_vertex = [], 0, False
+        while True:
+            words = f.readline().decode("ascii").split()
+            if not words:
+                raise ValueError(f"{path}: PLY header without end_header")
+            if words[0] == "end_header":
+                break
+            if words[0] == "format" and words[1] != "binary_little_endian":
+                raise ValueError(f"{path}: only binary_little_endian PLY is read, not {words[1]}")
+            if words[0] == "element":
+                in_vertex = words[1] == "vertex"
+                count = int(words[2]) if in_vertex else count
+            elif words[0] == "property" and in_vertex:
+                fields.append((words[2], types[words[1]]))
+        vertex = np.fromfile(f, dtype=np.dtype(fields), count=count)
+    xyz = np.stack([vertex[n] for n in "xyz"], axis=1).astype(np.float64)
+    rgb = np.stack([vertex[n] for n in ("red", "green", "blue")], axis=1).astype(np.uint8)
+    return xyz, rgb
+
+
+def colour_depth(depth, near, far):
+    """BGR turbo colour map of depth over [near, far], black where NaN."""
+    scaled = np.clip((np.nan_to_num(depth, nan=far) - near) / max(far - near, 1e-6), 0, 1)
+    image = cv2.applyColorMap((255 * scaled).astype(np.uint8), cv2.COLORMAP_TURBO)
+    image[~np.isfinite(depth)] = 0
+    return image
+
+
+def colour_depth_pair(estimate, truth, path):
+    """Writes estimate | ground truth side by side on the ground truth's depth range."""
+    finite = truth[np.isfinite(truth)]
+    near, far = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    gap = np.zeros((estimate.shape[0], 4, 3), np.uint8)
+    if not cv2.imwrite(path, np.hstack([colour_depth(estimate, near, far), gap, colour_depth(truth, near, far)])):
+        raise IOError(f"{path}: cannot write")
