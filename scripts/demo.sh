@@ -3,8 +3,9 @@
 # synthetic indoor sequence with exact ground truth (no download), writes it as
 # a ROS bag, plays it through the mapping nodelet with roslaunch + rosbag play
 # (headless; CUDA when usable, else the CPU at 320x240), prints a line per
-# keyframe and a summary, and writes the map (PLY), colour-mapped depth
-# images and, when Xvfb is installed, a PNG of the map as rviz shows it.
+# keyframe and a summary, and writes the nodelet's global map (PLY, through its
+# ~save_map service), colour-mapped depth images and, when Xvfb is installed,
+# a PNG of the map as rviz shows it.
 #
 # usage: scripts/demo.sh [OUT_DIR] [options]      (OUT_DIR default: ./out/demo)
 #   --views N        frames of the sequence (default 10)
@@ -15,15 +16,13 @@
 #   --no-snapshot    skip the headless rviz picture
 #   --skip-build     do not install or build when the programs are already built
 #   --timeout S      wall seconds the mapping may take (default 900)
-#   --map-topic T    save map.ply from this global map PointCloud2 (in the fixed
-#                    frame) instead of from the accumulated keyframe clouds
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:/usr/local/cuda/bin:$PATH
 build=${AMHMVS_BUILD_DIR:-$here/build}
 bin=$build/devel/lib/amhmvs_mapping
 
-out=$here/out/demo views=10 size=320x240 seed=1 rviz=false snapshot=true skip_build=false timeout=900 map_topic=""
+out=$here/out/demo views=10 size=320x240 seed=1 rviz=false snapshot=true skip_build=false timeout=900
 while [ $# -gt 0 ]; do
   case $1 in
     --views) views=$2; shift 2 ;;
@@ -33,7 +32,6 @@ while [ $# -gt 0 ]; do
     --no-snapshot) snapshot=false; shift ;;
     --skip-build) skip_build=true; shift ;;
     --timeout) timeout=$2; shift 2 ;;
-    --map-topic) map_topic=$2; shift 2 ;;
     -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;;
     -*) echo "demo.sh: unknown option $1 (--help lists them)" >&2; exit 2 ;;
     *) out=$1; shift ;;
@@ -68,8 +66,7 @@ python3 "$here/scripts/room_view_rviz_config.py" "$here/rviz/amhmvs_mapping.rviz
 # The console gets the progress lines, the summary, warnings and errors; the
 # whole roslaunch output goes to mapping.log.
 roslaunch -p "$port" amhmvs_mapping demo.launch bag:="$out/sequence.bag" output_dir:="$out" \
-  expected_frames:="$views" timeout:="$timeout" rviz:="$rviz" rviz_config:="$out/rviz_live.rviz" \
-  map_topic:="$map_topic" 2>&1 |
+  expected_frames:="$views" timeout:="$timeout" rviz:="$rviz" rviz_config:="$out/rviz_live.rviz" 2>&1 |
   tee "$out/mapping.log" |
   grep --line-buffered -E '^(keyframe [0-9]|== |keyframes processed|time per|depth accuracy|map|depth images)|stays open|WARN|ERROR' || true
 if ! grep -q '"completed": true' "$out/summary.json" 2>/dev/null; then
@@ -89,7 +86,7 @@ fi
 echo
 echo "demo outputs in $out:"
 echo "  summary.txt, summary.json   keyframes, ms per keyframe, depth accuracy, map size"
-echo "  map.ply                     the map: the keyframe clouds in the world frame (not fused)"
+echo "  map.ply                     the map: the nodelet's fused voxel map (world frame), saved by ~save_map"
 echo "  depth/NNNN.png              colour-mapped depth per keyframe: estimate | ground truth"
 [ -f "$out/map_rviz.png" ] && echo "  map_rviz.png                the map as rviz shows it"
 echo "  sequence.bag, scene/        the synthetic sequence (bag with /camera/depth_gt; MVSNet dense folder)"

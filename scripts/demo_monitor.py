@@ -1,24 +1,24 @@
 #!/usr/bin/env python3
 """Demo monitor: watches the mapping nodelet's outputs while a bag with
 ground-truth depth plays, prints one progress line per keyframe, and at the
-end writes the map (PLY), colour-mapped depth images and a summary.
+end has the nodelet save its global map (map.ply, via its save_map service),
+checks the map against the ground truth and writes colour-mapped depth images
+and a summary.
 
-Subscribes (remap as needed):
+Subscribes and calls (remap as needed):
   depth, depth_camera_info  the nodelet's depth/image (32FC1) and its camera_info
-  keyframe_cloud            the nodelet's keyframe clouds (optical frame)
   depth_gt                  ground-truth depth of the input images (32FC1, same stamps)
-  diagnostics               the nodelet's counters (the end condition)
-  /tf                       camera poses, to move the keyframe clouds into ~fixed_frame
-  map (if ~map_topic)       a global map PointCloud2 in ~fixed_frame; when one
-                            arrives, map.ply is written from the latest one instead
-                            of from the accumulated keyframe clouds
+  diagnostics               the nodelet's counters (the end condition, map size)
+  /tf                       camera poses in ~fixed_frame, to check the map points
+  save_map                  the nodelet's ~save_map service (amhmvs_mapping/SaveMap)
 Parameters:
   ~output_dir       where map.ply, depth/, summary.txt and summary.json go
-  ~expected_frames  frames in the bag: the run ends once the nodelet has accounted
-                    for all of them (depth map, no source, not a keyframe, dropped)
+  ~expected_frames  frames in the bag: the run ends once the nodelet has processed
+                    all of them (depth map, no source, not a keyframe, dropped);
+                    keyframes the nodelet has not fused into the map by then
+                    are not waited for
   ~timeout          wall seconds before giving up (exit 1), default 900
   ~fixed_frame      default world
-  ~map_topic        default "" (accumulate keyframe clouds)
   ~stay_while_node  default "": after the summary, keep running (and so keep the
                     launch up, this node being required) until this node ends,
                     e.g. /rviz: the user closes rviz to end the demo
@@ -36,13 +36,13 @@ import rosnode
 import rospy
 import tf2_ros
 from diagnostic_msgs.msg import DiagnosticArray
-from sensor_msgs.msg import CameraInfo, Image, PointCloud2
+from sensor_msgs.msg import CameraInfo, Image
 
-from demo_outputs import colour_depth_pair, write_ply
+from amhmvs_mapping.srv import SaveMap
+from demo_outputs import colour_depth_pair, read_ply
 
 THRESHOLDS = (0.01, 0.02, 0.05)      # relative depth error, as amhmvs_depth --ground_truth
 SURFACE_TOLERANCE = 0.02             # metres, map points "on the true surface"
-FIELD_DTYPES = {7: "<f4", 8: "<f8"}  # PointField datatypes the clouds use
 
 
 def depth_array(msg):
@@ -50,21 +50,6 @@ def depth_array(msg):
         raise ValueError(f"depth encoding {msg.encoding}, expected 32FC1")
     rows = np.frombuffer(msg.data, dtype=">f4" if msg.is_bigendian else "<f4", count=msg.height * msg.step // 4)
     return rows.reshape(msg.height, msg.step // 4)[:, :msg.width]
-
-
-def cloud_arrays(msg):
-    """(N x 3 float64 xyz, N x 3 uint8 rgb) of a PointCloud2 with x y z rgb fields."""
-    fields = {f.name: f for f in msg.fields}
-    dtype = np.dtype({"names": ["x", "y", "z", "rgb"],
-                      "formats": [FIELD_DTYPES[fields[n].datatype] if n != "rgb" else "<u4" for n in "x y z rgb".split()],
-                      "offsets": [fields[n].offset for n in ("x", "y", "z", "rgb")],
-                      "itemsize": msg.point_step})
-    points = np.frombuffer(msg.data, dtype=dtype, count=msg.width * msg.height)
-    xyz = np.stack([points["x"], points["y"], points["z"]], axis=1).astype(np.float64)
-    packed = points["rgb"]
-    rgb = np.stack([(packed >> 16) & 255, (packed >> 8) & 255, packed & 255], axis=1).astype(np.uint8)
-    keep = np.isfinite(xyz).all(axis=1)
-    return xyz[keep], rgb[keep]
 
 
 def stamp_key(stamp):
@@ -84,30 +69,49 @@ def rigid_matrix(transform):
     return rotation, np.array([t.x, t.y, t.z])
 
 
+def surface_errors(xyz, truth, info, rotation, translation):
+    """|depth - true depth| in metres of world points seen by one camera
+    (rotation, translation: camera-to-world), inf where the camera has no true
+    depth for them. The true depth is interpolated bilinearly in inverse depth
+    (exact on planes) from the four ground-truth pixels around the projection."""
+    # Intrinsics of the depth image, rescaled to the ground truth's size.
+    sx, sy = truth.shape[1] / info.width, truth.shape[0] / info.height
+    fx, fy, cx, cy = info.K[0] * sx, info.K[4] * sy, (info.K[2] + 0.5) * sx - 0.5, (info.K[5] + 0.5) * sy - 0.5
+    camera = (xyz - translation) @ rotation
+    z = camera[:, 2]
+    errors = np.full(len(xyz), np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u, v = fx * camera[:, 0] / z + cx, fy * camera[:, 1] / z + cy
+    inside = (z > 0) & (u >= 0) & (u <= truth.shape[1] - 1) & (v >= 0) & (v <= truth.shape[0] - 1)
+    u, v, z, index = u[inside], v[inside], z[inside], np.flatnonzero(inside)
+    u0 = np.minimum(u.astype(int), truth.shape[1] - 2)
+    v0 = np.minimum(v.astype(int), truth.shape[0] - 2)
+    a, b = u - u0, v - v0
+    inverse = 1.0 / truth  # NaN (no surface) stays NaN
+    true_inverse = ((1 - a) * (1 - b) * inverse[v0, u0] + a * (1 - b) * inverse[v0, u0 + 1] +
+                    (1 - a) * b * inverse[v0 + 1, u0] + a * b * inverse[v0 + 1, u0 + 1])
+    known = np.isfinite(true_inverse) & (true_inverse > 0)
+    errors[index[known]] = np.abs(z[known] - 1.0 / true_inverse[known])
+    return errors
+
+
 class DemoMonitor:
     def __init__(self):
         self.output_dir = rospy.get_param("~output_dir")
         self.expected_frames = int(rospy.get_param("~expected_frames"))
         self.timeout = float(rospy.get_param("~timeout", 900.0))
         self.fixed_frame = rospy.get_param("~fixed_frame", "world")
-        map_topic = rospy.get_param("~map_topic", "")
         os.makedirs(os.path.join(self.output_dir, "depth"), exist_ok=True)
 
         self.lock = threading.Lock()
         self.ground_truth = {}      # stamp -> depth array
         self.depth = {}             # stamp -> (depth array, wall ms since the previous one), until evaluated
         self.camera_info = {}       # stamp -> CameraInfo of the depth image
-        self.pending_clouds = []    # clouds waiting for their tf, ground truth and camera_info
         self.evaluated = []         # per keyframe: stamp, counts, total
-        self.progress = {}          # stamp -> progress line waiting for the keyframe's cloud
-        self.mapped = set()         # stamps of the clouds in the map
-        self.cloud_xyz, self.cloud_rgb = [], []
-        self.cloud_points_on_surface = 0
-        self.cloud_points_checked = 0
-        self.latest_map = None
+        self.progress = []          # (depth maps count, line) waiting for diagnostics with that count
         self.diagnostics = {}
         self.estimate_ms = {}       # depth map count -> "last estimate ms" seen with it
-        self.depth_count = self.cloud_count = 0
+        self.depth_count = 0
         self.start = time.monotonic()
         self.first_stamp = None
         self.last_depth_time = None
@@ -119,9 +123,6 @@ class DemoMonitor:
         rospy.Subscriber("diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=20)
         rospy.Subscriber("depth_camera_info", CameraInfo, self.on_camera_info, queue_size=100)
         rospy.Subscriber("depth", Image, self.on_depth, queue_size=100, buff_size=2 ** 24)
-        rospy.Subscriber("keyframe_cloud", PointCloud2, self.on_cloud, queue_size=100, buff_size=2 ** 26)
-        if map_topic:
-            rospy.Subscriber(map_topic, PointCloud2, self.on_map, queue_size=1, buff_size=2 ** 28)
         rospy.Subscriber("depth_gt", Image, self.on_ground_truth, queue_size=1000, buff_size=2 ** 24)
 
     # ------------------------------------------------------------ callbacks --
@@ -145,16 +146,6 @@ class DemoMonitor:
             self.depth[stamp_key(msg.header.stamp)] = (depth_array(msg).copy(), wall_ms)
             self.evaluate_ready()
 
-    def on_cloud(self, msg):
-        with self.lock:
-            self.cloud_count += 1
-            self.pending_clouds.append(msg)
-            self.transform_ready_clouds()
-
-    def on_map(self, msg):
-        with self.lock:
-            self.latest_map = msg
-
     def on_diagnostics(self, msg):
         for status in msg.status:
             if not status.name.endswith("depth estimation"):
@@ -165,6 +156,7 @@ class DemoMonitor:
                 maps = int(values.get("depth_maps", 0))
                 if maps > 0 and "last estimate ms" in values:
                     self.estimate_ms.setdefault(maps, float(values["last estimate ms"]))
+                self.print_progress()
 
     # ----------------------------------------------------------- evaluation --
     def evaluate_ready(self):
@@ -183,54 +175,33 @@ class DemoMonitor:
             index = len(self.evaluated) + 1
             self.evaluated.append({"stamp": seconds(stamp), "within": within, "total": total, "wall_ms": wall_ms})
             colour_depth_pair(estimate, truth, os.path.join(self.output_dir, "depth", f"{index:04d}.png"))
-            self.progress[stamp] = (f"keyframe {index} (t={seconds(stamp) - self.first_stamp:.2f} s): "
-                                    + " / ".join(f"{100.0 * w / max(total, 1):.1f}" for w in within)
-                                    + f" % within 1/2/5 % of ground truth, {wall_ms:.0f} ms")
+            self.progress.append((index, f"keyframe {index} (t={seconds(stamp) - self.first_stamp:.2f} s): "
+                                  + " / ".join(f"{100.0 * w / max(total, 1):.1f}" for w in within)
+                                  + f" % within 1/2/5 % of ground truth, {wall_ms:.0f} ms"))
             self.print_progress()
 
     def print_progress(self):
-        """One line per keyframe once its depth is evaluated and its cloud is in the map."""
-        for stamp in [s for s in self.progress if s in self.mapped]:
-            print(f"{self.progress.pop(stamp)}, map {sum(len(x) for x in self.cloud_xyz)} points", flush=True)
+        """One line per keyframe once its depth is evaluated and the nodelet's
+        diagnostics count its depth map, with the map size they report then."""
+        maps = int(self.diagnostics.get("depth_maps", 0))
+        while self.progress and self.progress[0][0] <= maps:
+            print(f"{self.progress.pop(0)[1]}, map {self.diagnostics.get('map voxels', '?')} voxels", flush=True)
 
-    def transform_ready_clouds(self):
-        waiting = []
-        for msg in self.pending_clouds:
-            key = stamp_key(msg.header.stamp)
-            if key not in self.ground_truth or key not in self.camera_info:  # needed for the surface check
-                waiting.append(msg)
+    def map_on_surface(self, xyz):
+        """Map points checked (seen with a true depth by a keyframe with a depth
+        map) and those within SURFACE_TOLERANCE of the true depth in one of them."""
+        best = np.full(len(xyz), np.inf)
+        for stamp, info in self.camera_info.items():
+            if stamp not in self.ground_truth:
                 continue
             try:
-                transform = self.tf_buffer.lookup_transform(self.fixed_frame, msg.header.frame_id, msg.header.stamp)
-            except (tf2_ros.LookupException, tf2_ros.ExtrapolationException, tf2_ros.ConnectivityException):
-                waiting.append(msg)
+                transform = self.tf_buffer.lookup_transform(self.fixed_frame, info.header.frame_id, info.header.stamp)
+            except (tf2_ros.LookupException, tf2_ros.ExtrapolationException, tf2_ros.ConnectivityException) as e:
+                rospy.logwarn("demo monitor: keyframe at %.2f s not used to check the map: %s", seconds(stamp), e)
                 continue
-            xyz, rgb = cloud_arrays(msg)
-            self.check_against_ground_truth(xyz, msg)
             rotation, translation = rigid_matrix(transform.transform)
-            self.cloud_xyz.append(xyz @ rotation.T + translation)
-            self.cloud_rgb.append(rgb)
-            self.mapped.add(stamp_key(msg.header.stamp))
-        self.pending_clouds = waiting
-        self.print_progress()
-
-    def check_against_ground_truth(self, xyz, msg):
-        """Points of one keyframe cloud (optical frame) against that keyframe's true depth."""
-        key = stamp_key(msg.header.stamp)
-        truth, info = self.ground_truth[key], self.camera_info[key]
-        if len(xyz) == 0:
-            return
-        # Intrinsics of the depth image, rescaled to the ground truth's size.
-        sx, sy = truth.shape[1] / info.width, truth.shape[0] / info.height
-        fx, fy, cx, cy = info.K[0] * sx, info.K[4] * sy, (info.K[2] + 0.5) * sx - 0.5, (info.K[5] + 0.5) * sy - 0.5
-        z = xyz[:, 2]
-        u = np.rint(fx * xyz[:, 0] / z + cx).astype(int)
-        v = np.rint(fy * xyz[:, 1] / z + cy).astype(int)
-        inside = (z > 0) & (u >= 0) & (u < truth.shape[1]) & (v >= 0) & (v < truth.shape[0])
-        true_z = truth[v[inside], u[inside]]
-        checked = np.isfinite(true_z)
-        self.cloud_points_checked += int(np.count_nonzero(checked))
-        self.cloud_points_on_surface += int(np.count_nonzero(np.abs(z[inside][checked] - true_z[checked]) < SURFACE_TOLERANCE))
+            best = np.minimum(best, surface_errors(xyz, self.ground_truth[stamp], info, rotation, translation))
+        return int(np.count_nonzero(np.isfinite(best))), int(np.count_nonzero(best < SURFACE_TOLERANCE))
 
     # ------------------------------------------------------------ end state --
     def accounted_frames(self):
@@ -241,26 +212,28 @@ class DemoMonitor:
                 int(d.get("frames_not_keyframes", 0)) + dropped)
 
     def finished(self):
+        """The nodelet has processed every frame and each depth map is evaluated
+        (whether the nodelet has fused every keyframe into its map is not asked)."""
         with self.lock:
             if not self.diagnostics or int(self.diagnostics.get("queued", 1)) != 0:
                 return False
-            maps = int(self.diagnostics.get("depth_maps", 0))
-            self.transform_ready_clouds()
-            return (self.accounted_frames() >= self.expected_frames and self.depth_count >= maps and
-                    self.cloud_count >= maps and not self.depth and not self.pending_clouds)
+            return (self.accounted_frames() >= self.expected_frames and
+                    self.depth_count >= int(self.diagnostics.get("depth_maps", 0)) and not self.depth)
 
-    def summary(self, completed):
+    def save_map(self):
+        """The nodelet's map written to map.ply by its save_map service: (path, problem or "")."""
+        path = os.path.join(self.output_dir, "map.ply")
+        try:
+            rospy.wait_for_service("save_map", timeout=10.0)
+            response = rospy.ServiceProxy("save_map", SaveMap)(path)
+        except (rospy.ROSException, rospy.ServiceException) as e:
+            return path, f"save_map: {e}"
+        return path, "" if response.success else response.message
+
+    def summary(self, completed, map_path, xyz):
         within = np.sum([k["within"] for k in self.evaluated], axis=0) if self.evaluated else np.zeros(3)
         total = sum(k["total"] for k in self.evaluated)
-        if self.latest_map is not None:
-            xyz, rgb = cloud_arrays(self.latest_map)
-            map_source = f"global map topic ({self.latest_map.header.frame_id})"
-        else:
-            xyz = np.concatenate(self.cloud_xyz) if self.cloud_xyz else np.zeros((0, 3))
-            rgb = np.concatenate(self.cloud_rgb) if self.cloud_rgb else np.zeros((0, 3), np.uint8)
-            map_source = f"keyframe clouds in {self.fixed_frame}"
-        map_path = os.path.join(self.output_dir, "map.ply")
-        write_ply(map_path, xyz, rgb)
+        checked, on_surface = self.map_on_surface(xyz)
         d = self.diagnostics
         dropped = {k[len("dropped: "):]: int(v) for k, v in d.items() if k.startswith("dropped: ")}
         wall = [k["wall_ms"] for k in self.evaluated]
@@ -277,8 +250,9 @@ class DemoMonitor:
             "depth_within_percent": {f"{100 * t:g}%": 100.0 * w / max(total, 1) for t, w in zip(THRESHOLDS, within)},
             "depth_pixels_evaluated": total,
             "map_points": int(len(xyz)),
-            "map_source": map_source,
-            "map_points_within_2cm_percent": 100.0 * self.cloud_points_on_surface / max(self.cloud_points_checked, 1),
+            "map_source": f"the nodelet's voxel map, {self.fixed_frame}, saved by save_map",
+            "map_points_checked": checked,
+            "map_points_within_2cm_percent": 100.0 * on_surface / max(checked, 1),
             "map_ply": map_path,
             "depth_images": os.path.join(self.output_dir, "depth"),
             "run_seconds": time.monotonic() - self.start,
@@ -289,7 +263,7 @@ def summary_text(s):
     ms = lambda v: "n/a" if v is None else f"{v:.0f} ms"
     within = " / ".join(f"{v:.1f}" for v in s["depth_within_percent"].values())
     return "\n".join([
-        "== amhmvs demo summary ==" + ("" if s["completed"] else " (TIMED OUT: incomplete)"),
+        "== amhmvs demo summary ==" + ("" if s["completed"] else " (INCOMPLETE: see the errors above)"),
         f"keyframes processed:  {s['keyframes_processed']} depth maps from {s['frames']} frames "
         f"({s['keyframes_without_sources']} without source views, dropped: {s['dropped'] or 'none'}), backend {s['backend']}",
         f"time per keyframe:    {ms(s['estimate_ms_per_keyframe'])} estimation (nodelet, {s['estimate_ms_samples']} sampled), "
@@ -297,7 +271,7 @@ def summary_text(s):
         f"depth accuracy:       {within} % of {s['depth_pixels_evaluated']} ground-truth pixels within 1 / 2 / 5 % "
         "(no estimate counts as wrong)",
         f"map:                  {s['map_points']} points ({s['map_source']}), "
-        f"{s['map_points_within_2cm_percent']:.1f} % within 2 cm of the true surface",
+        f"{s['map_points_within_2cm_percent']:.1f} % of {s['map_points_checked']} checked within 2 cm of the true surface",
         f"map PLY:              {s['map_ply']}",
         f"depth images:         {s['depth_images']}/NNNN.png (estimate | ground truth, same colour scale)",
     ])
@@ -321,8 +295,13 @@ def main():
         time.sleep(0.2)  # polls the end condition; callbacks run on their own threads
     if not completed and not rospy.is_shutdown():
         rospy.logerr("demo monitor: gave up after %.0f s; nodelet diagnostics: %s", monitor.timeout, monitor.diagnostics)
+    map_path, problem = monitor.save_map()
+    if problem:
+        rospy.logerr("demo monitor: the nodelet did not save its map: %s", problem)
+        completed = False
+    xyz = np.zeros((0, 3)) if problem else read_ply(map_path)[0]
     with monitor.lock:
-        summary = monitor.summary(completed)
+        summary = monitor.summary(completed, map_path, xyz)
     text = summary_text(summary)
     print("\n" + text, flush=True)
     with open(os.path.join(monitor.output_dir, "summary.txt"), "w") as f:

@@ -1,23 +1,6 @@
-"""Files the demo writes: binary PLY clouds and colour-mapped depth images."""
+"""Files of the demo: PLY clouds (read) and colour-mapped depth images (written)."""
 import cv2
 import numpy as np
-
-
-def write_ply(path, xyz, rgb):
-    """Binary little-endian PLY with float x y z and uchar red green blue."""
-    vertex = np.empty(len(xyz), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
-                                       ("red", "u1"), ("green", "u1"), ("blue", "u1")])
-    for i, name in enumerate("xyz"):
-        vertex[name] = xyz[:, i]
-    for i, name in enumerate(("red", "green", "blue")):
-        vertex[name] = rgb[:, i]
-    header = ("ply\nformat binary_little_endian 1.0\n"
-              f"element vertex {len(vertex)}\n"
-              "property float x\nproperty float y\nproperty float z\n"
-              "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n")
-    with open(path, "wb") as f:
-        f.write(header.encode("ascii"))
-        f.write(vertex.tobytes())
 
 
 def read_ply(path):
