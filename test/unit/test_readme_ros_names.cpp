@@ -46,7 +46,6 @@ struct KnownNames {
 void addCommunicationNames(const std::string& code, KnownNames* known) {
   static const std::regex call(R"((advertiseService|advertiseCamera|advertise|subscribe|Subscriber(Filter)?\b))"
                                R"((<[^;(]*>)?\s*\([^;"]*"([^"]+)\")");
-  static const std::regex compared(R"([!=]=\s*"([^"]+)\")");
   for (std::sregex_iterator it(code.begin(), code.end(), call), end; it != end; ++it) {
     const std::string name = (*it)[4];
     known->communication.insert(name);
@@ -60,7 +59,6 @@ void addCommunicationNames(const std::string& code, KnownNames* known) {
       known->private_services.insert(name);
     }
   }
-  for (const std::string& value : captures(code, compared)) known->words.insert(value);
   if (code.find("diagnostic_updater::Updater") != std::string::npos) known->communication.insert("/diagnostics");
 }
 
@@ -77,6 +75,7 @@ void addYamlKeys(const std::string& yaml, KnownNames* known) {
       known->parameters.insert(parent);
     } else {
       known->parameters.insert(parent + "/" + std::string(m[2]));
+      known->words.insert(m[2]);  // a group's row of the table lists its keys bare
     }
   }
 }
@@ -87,9 +86,19 @@ KnownNames collectKnownNames(const fs::path& root) {
     if (entry.path().extension() == ".cpp") addCommunicationNames(readText(entry.path()), &known);
   }
   addYamlKeys(readText(root / "config/mapping.yaml"), &known);
+  // Option values the code compares with (e.g. the backend names in src/mvs).
+  static const std::regex compared(R"([!=]=\s*"([^"]+)\")");
+  for (const auto& entry : fs::recursive_directory_iterator(root / "src")) {
+    if (entry.path().extension() == ".cpp")
+      for (const std::string& value : captures(readText(entry.path()), compared)) known.words.insert(value);
+  }
+  // Message and service types, and their field names (a service's `path`).
+  static const std::regex field(R"((?:^|\n)\s*[A-Za-z][\w/]*(?:\[\d*\])?\s+(\w+)\s*(?:#[^\n]*)?(?=\n|$))");
   for (const char* folder : {"msg", "srv"}) {
-    for (const auto& entry : fs::directory_iterator(root / folder))
+    for (const auto& entry : fs::directory_iterator(root / folder)) {
       known.types.insert("amhmvs_mapping/" + entry.path().stem().string());
+      for (const std::string& name : captures(readText(entry.path()), field)) known.words.insert(name);
+    }
   }
   static const std::regex plugin(R"(<class name="(amhmvs_mapping/\w+)\")");
   static const std::regex executable(R"(add_executable\((\w+))"), ns(R"(<arg name="ns" default="(\w+)\")");
@@ -123,7 +132,8 @@ std::vector<std::string> unknownNames(const std::string& text, const KnownNames&
       if (!known.parameters.count(name) && !known.private_services.count(name) && !prefix)
         unknown.push_back(token + ": not a key of config/mapping.yaml nor a private service in src/ros");
     } else if (std::regex_match(token, ros_name)) {
-      if (!known.communication.count(token) && !known.parameters.count(token) && !known.words.count(token))
+      const bool group = token.back() == '/' && known.parameters.count(token.substr(0, token.size() - 1));  // `store/`
+      if (!known.communication.count(token) && !known.parameters.count(token) && !known.words.count(token) && !group)
         unknown.push_back(token + ": not a topic or service in src/ros, a parameter, an option value or a program");
     }
   }
