@@ -483,8 +483,8 @@ void MappingNodelet::process(const Frame& frame) {
   }
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
+    counts_["keyframes_fused"] += result.fused.size();  // reported from the first keyframe on, 0 included
     for (const amhmvs::FusedKeyframe& fused : result.fused) {
-      ++counts_["keyframes_fused"];
       counts_["map_points_added"] += fused.map_update.added_points;
       counts_["map_points_skipped_invalid"] += fused.map_update.skipped_invalid;
       counts_["map_points_over_budget"] += fused.map_update.dropped_over_budget;
