@@ -7,6 +7,7 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mapping/map_export.h"
+#include "amhmvs_mapping/mvs/patchmatch_options.h"
 
 namespace amhmvs {
 namespace {
@@ -42,6 +43,8 @@ std::string OnlineMapperOptions::validate() const {
   appendProblems("depth_range", depth_range.validate(), &out);
   appendProblems("fusion", fusion.validate(), &out);
   appendProblems("map", map.validate(), &out);
+  if (fusion.min_consistent_views > kMaxSourceViews)
+    out << "fusion: min_consistent_views must be at most " << kMaxSourceViews << " (the most consistency views)\n";
   return out.str();
 }
 
@@ -56,7 +59,7 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
   KeyframeResult result;
   result.id = keyframe.id;
   result.camera = keyframe.camera;
-  result.evicted = store_.add(std::move(keyframe));
+  noteEvicted(store_.add(std::move(keyframe)), &result);
   const int64_t id = result.id;
   const StoredKeyframe& stored = store_.entry(id);
   result.selection = selectSources(store_, id, options_.sources);
@@ -66,8 +69,8 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
     DepthMap none;
     none.depth = ImageF(stored.keyframe.camera.width, stored.keyframe.camera.height, 1,
                         std::numeric_limits<float>::quiet_NaN());
-    const std::vector<int64_t> evicted = store_.attachDepth(id, std::move(none));
-    result.evicted.insert(result.evicted.end(), evicted.begin(), evicted.end());
+    noteEvicted(store_.attachDepth(id, std::move(none)), &result);
+    result.waiting_for_fusion = waiting_.size();
     return result;
   }
   store_.setSources(id, result.selection.source_ids);
@@ -90,36 +93,74 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
     throw;
   }
   result.has_depth = true;
-  std::vector<int64_t> evicted = store_.attachDepth(id, result.depth);
-  result.evicted.insert(result.evicted.end(), evicted.begin(), evicted.end());
-
-  result.points = fuse(id, result.selection.source_ids, &result.fusion_sources);
-  if (result.points.empty()) return result;
-  evicted = store_.attachPoints(id, result.points);
-  result.evicted.insert(result.evicted.end(), evicted.begin(), evicted.end());
-  result.map_update = map_.addKeyframe(id, store_.keyframe(id).cameraToWorld(), result.points);
-  ++map_revision_;
+  noteEvicted(store_.attachDepth(id, result.depth), &result);
+  // A keyframe with a depth map waits for fusion; this depth map may also
+  // complete earlier waiting keyframes.
+  if (store_.contains(id)) waiting_.push_back(id);
+  fuseWaiting(&result);
+  result.waiting_for_fusion = waiting_.size();
   return result;
 }
 
-KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& source_ids, int* fusion_sources) const {
-  // Local fusion ids: the sources 0..n-1 (no sources of their own: they only
-  // support), the keyframe n.
-  std::vector<FusionView> views;
-  for (int64_t source : source_ids) {
-    if (!store_.contains(source) || !hasDepthAndNormals(store_.entry(source))) continue;
-    views.push_back(fusionView(static_cast<int>(views.size()), store_.entry(source)));
+void OnlineMapper::noteEvicted(const std::vector<int64_t>& evicted, KeyframeResult* result) {
+  for (int64_t id : evicted) {
+    result->evicted.push_back(id);
+    const auto waiting = std::find(waiting_.begin(), waiting_.end(), id);
+    if (waiting == waiting_.end()) continue;
+    waiting_.erase(waiting);
+    result->evicted_before_fusion.push_back(id);
+    ++evicted_before_fusion_;
   }
-  *fusion_sources = static_cast<int>(views.size());
+}
+
+void OnlineMapper::fuseWaiting(KeyframeResult* result) {
+  const size_t required = static_cast<size_t>(std::max(1, options_.fusion.min_consistent_views));
+  // A snapshot: fusing one keyframe may evict another (attachPoints).
+  const std::vector<int64_t> candidates = waiting_;
+  for (int64_t id : candidates) {
+    if (std::find(waiting_.begin(), waiting_.end(), id) == waiting_.end()) continue;  // evicted meanwhile
+    FusedKeyframe fused;
+    fused.consistency_ids = consistencyViews(id);
+    if (fused.consistency_ids.size() < required) continue;
+    waiting_.erase(std::find(waiting_.begin(), waiting_.end(), id));
+    fused.id = id;
+    fused.stamp = store_.keyframe(id).stamp;
+    fused.camera = store_.keyframe(id).camera;
+    fused.points = fuse(id, fused.consistency_ids);
+    if (!fused.points.empty()) {
+      noteEvicted(store_.attachPoints(id, fused.points), result);
+      fused.map_update = map_.addKeyframe(id, store_.keyframe(id).cameraToWorld(), fused.points);
+      ++map_revision_;
+    }
+    if (id == result->id) result->fused_now = true;
+    result->fused.push_back(std::move(fused));
+  }
+}
+
+std::vector<int64_t> OnlineMapper::consistencyViews(int64_t id) const {
+  std::vector<const Keyframe*> candidates;
+  for (int64_t other : store_.ids()) {
+    if (other == id || !hasDepthAndNormals(store_.entry(other))) continue;
+    candidates.push_back(&store_.keyframe(other));
+  }
+  if (candidates.empty()) return {};
+  SourceSelectionOptions options = options_.sources;
+  options.max_sources = std::min(kMaxSourceViews, std::max(options.max_sources, options_.fusion.min_consistent_views));
+  return selectSources(store_.keyframe(id), candidates, options).source_ids;
+}
+
+KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& view_ids) const {
+  // Local fusion ids: the consistency views 0..n-1 (no sources of their own:
+  // they only support), the keyframe n.
+  std::vector<FusionView> views;
+  for (int64_t view : view_ids) views.push_back(fusionView(static_cast<int>(views.size()), store_.entry(view)));
   const StoredKeyframe& stored = store_.entry(id);
   if (views.empty() || !hasDepthAndNormals(stored)) return {};
   FusionView reference = fusionView(static_cast<int>(views.size()), stored);
   for (const FusionView& view : views) reference.source_ids.push_back(view.id);
   views.push_back(std::move(reference));
-
-  FusionOptions options = options_.fusion;
-  options.min_consistent_views = std::min(options.min_consistent_views, *fusion_sources);
-  const FusionResult fused = fuseDepthMaps(views, options);
+  // min_consistent_views as configured: never fewer than asked for.
+  const FusionResult fused = fuseDepthMaps(views, options_.fusion);
   return toKeyframePoints(fused.views.back().points);
 }
 
@@ -136,6 +177,8 @@ bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_wor
 
 void OnlineMapper::reset() {
   store_ = KeyframeStore(options_.store);
+  waiting_.clear();
+  evicted_before_fusion_ = 0;
   map_ = VoxelMap(options_.map);
   ++map_revision_;
 }

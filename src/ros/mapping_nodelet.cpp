@@ -393,6 +393,7 @@ void MappingNodelet::workerLoop() {
     if (reset_requested_.exchange(false)) {
       std::lock_guard<std::mutex> lock(mapper_mutex_);
       mapper_->reset();
+      waiting_headers_.clear();
     }
     if (!updates.empty()) applyPoseUpdates(std::move(updates));
     updates.clear();
@@ -461,7 +462,14 @@ void MappingNodelet::process(const Frame& frame) {
     std::lock_guard<std::mutex> stats(stats_mutex_);
     counts_["stored_keyframes"] = mapper_->store().size();
     counts_["keyframes_evicted"] = mapper_->store().evictedCount();
+    counts_["keyframes_waiting_for_fusion"] = result.waiting_for_fusion;
+    counts_["keyframes_evicted_before_fusion"] = mapper_->evictedBeforeFusion();
     map_voxels_ = mapper_->map().voxelCount();
+  }
+  for (int64_t id : result.evicted_before_fusion) {
+    waiting_headers_.erase(id);
+    NODELET_WARN("keyframe %ld: evicted from the store before it could be fused (never in the map)",
+                 static_cast<long>(id));
   }
   if (!result.has_depth) {
     count("keyframes_without_sources");
@@ -472,14 +480,21 @@ void MappingNodelet::process(const Frame& frame) {
     ++counts_["depth_maps"];
     last_estimate_ms_ = result.depth.milliseconds;
     last_gpu_memory_bytes_ = result.depth.gpu_memory_bytes;
-    counts_["map_points_added"] += result.map_update.added_points;
-    counts_["map_points_skipped_invalid"] += result.map_update.skipped_invalid;
-    counts_["map_points_over_budget"] += result.map_update.dropped_over_budget;
   }
-  NODELET_DEBUG("keyframe %ld: %zu sources, depth %.2f..%.2f m (%s), %.0f ms, %zu fused points",
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    counts_["keyframes_fused"] += result.fused.size();  // reported from the first keyframe on, 0 included
+    for (const amhmvs::FusedKeyframe& fused : result.fused) {
+      counts_["map_points_added"] += fused.map_update.added_points;
+      counts_["map_points_skipped_invalid"] += fused.map_update.skipped_invalid;
+      counts_["map_points_over_budget"] += fused.map_update.dropped_over_budget;
+    }
+  }
+  NODELET_DEBUG("keyframe %ld: %zu sources, depth %.2f..%.2f m (%s), %.0f ms, %s; %zu keyframes fused, %zu wait",
                 static_cast<long>(frame.id), result.selection.source_ids.size(), result.depth_range.min,
                 result.depth_range.max, amhmvs::depthRangeSourceName(result.depth_range.source),
-                result.depth.milliseconds, result.points.size());
+                result.depth.milliseconds, result.fused_now ? "fused" : "waits for fusion", result.fused.size(),
+                result.waiting_for_fusion);
   publishKeyframe(frame, result);
 }
 
@@ -508,7 +523,15 @@ void MappingNodelet::publishKeyframe(const Frame& frame, const amhmvs::KeyframeR
     sensor_msgs::ImagePtr preview = depthPreviewMsg(result.depth.depth, header);
     if (preview) preview_pub_.publish(preview);
   }
-  if (cloud_pub_.getNumSubscribers() > 0) cloud_pub_.publish(cloudMsg(keyframeCloud(result.points), header));
+  // keyframe_cloud: when a keyframe is fused (this one, or earlier ones that
+  // waited for enough consistency views), with that keyframe's header.
+  if (!result.fused_now) waiting_headers_[result.id] = header;
+  for (const amhmvs::FusedKeyframe& fused : result.fused) {
+    const auto waiting = waiting_headers_.find(fused.id);
+    const std_msgs::Header fused_header = waiting != waiting_headers_.end() ? waiting->second : header;
+    if (waiting != waiting_headers_.end()) waiting_headers_.erase(waiting);
+    if (cloud_pub_.getNumSubscribers() > 0) cloud_pub_.publish(cloudMsg(keyframeCloud(fused.points), fused_header));
+  }
 }
 
 void MappingNodelet::publishMap(bool republish) {

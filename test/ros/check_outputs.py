@@ -85,9 +85,13 @@ class ReplayOutputs(unittest.TestCase):
         expected_depth = cls.expected_frames - 1
         while time.time() - start < timeout:
             with rec.lock:
+                # keyframe_cloud comes when a keyframe is fused, i.e. once
+                # min_consistent_views other depth maps can check it; the
+                # last ones may still wait for fusion.
                 done = (len(rec.images) >= cls.expected_frames and len(rec.depth) >= expected_depth
-                        and len(rec.clouds) >= expected_depth and len(rec.info) >= expected_depth
-                        and rec.diagnostics.get('depth_maps') == str(expected_depth))
+                        and len(rec.info) >= expected_depth
+                        and rec.diagnostics.get('depth_maps') == str(expected_depth)
+                        and len(rec.clouds) >= int(rec.diagnostics.get('keyframes_fused', '0')))
             if done:
                 break
             time.sleep(0.5)
@@ -157,11 +161,17 @@ class ReplayOutputs(unittest.TestCase):
             self.assertEqual(len(msg.data), 3 * msg.width * msg.height)
 
     def test_07_keyframe_clouds(self):
-        self.assertEqual([m.header.stamp for m in self.rec.clouds], [m.header.stamp for m in self.rec.depth])
-        # The first keyframe with depth has no source with a depth map to be
-        # fused against: its cloud is empty; every later one has points.
-        self.assertEqual(self.rec.clouds[0].width * self.rec.clouds[0].height, 0)
-        for msg in self.rec.clouds[1:]:
+        # One cloud per fused keyframe (published when it is fused), with that
+        # keyframe's depth stamp; the others wait for fusion.
+        diag = self.rec.diagnostics
+        depth_stamps = [m.header.stamp for m in self.rec.depth]
+        cloud_stamps = [m.header.stamp for m in self.rec.clouds]
+        self.assertEqual(len(cloud_stamps), int(diag.get('keyframes_fused', '-1')))
+        self.assertEqual(len(cloud_stamps) + int(diag.get('keyframes_waiting_for_fusion', '-1')), len(depth_stamps))
+        self.assertEqual(len(set(cloud_stamps)), len(cloud_stamps))
+        self.assertTrue(set(cloud_stamps) <= set(depth_stamps))
+        self.assertGreater(len(cloud_stamps), 0)
+        for msg in self.rec.clouds:
             self.assertEqual(msg.header.frame_id, self.optical_frame)
             names = [f.name for f in msg.fields]
             self.assertEqual(names, ['x', 'y', 'z', 'rgb', 'normal_x', 'normal_y', 'normal_z'])

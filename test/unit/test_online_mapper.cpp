@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
 #include <stdexcept>
 
 #include "amhmvs_mapping/core/error.h"
@@ -40,53 +41,188 @@ Keyframe keyframeAt(int64_t id, double x) {
   return test::smallKeyframe(id, static_cast<double>(id), test::poseAt({x, 0, 0}), 3, 128);
 }
 
-TEST(OnlineMapper, FirstKeyframeIsASourceThenDepthFusionAndMap) {
+// Ids of the keyframes a result fused.
+std::vector<int64_t> fusedIds(const KeyframeResult& result) {
+  std::vector<int64_t> ids;
+  for (const FusedKeyframe& fused : result.fused) ids.push_back(fused.id);
+  return ids;
+}
+
+TEST(OnlineMapper, FirstKeyframeIsASourceThenDeferredFusionAndMap) {
   int calls = 0;
   OnlineMapper mapper(wallOptions(), [&](const DepthProblem& problem) {
     ++calls;
     return wallDepth(problem);
   });
+  ASSERT_EQ(mapper.options().fusion.min_consistent_views, 2);
   const KeyframeResult first = mapper.process(keyframeAt(0, 0.0));
   EXPECT_FALSE(first.has_depth);
   EXPECT_FALSE(first.selection.reason.empty());
   EXPECT_EQ(calls, 0);
   EXPECT_EQ(mapper.store().state(0), KeyframeState::kDone);
   EXPECT_EQ(mapper.map().voxelCount(), 0u);
+  EXPECT_TRUE(mapper.waitingForFusion().empty());  // no depth map: nothing to fuse
 
+  // Keyframe 1: a depth map, but no other depth map to check it against.
   const KeyframeResult second = mapper.process(keyframeAt(1, 0.5));
   ASSERT_TRUE(second.has_depth);
   EXPECT_EQ(second.selection.source_ids, std::vector<int64_t>{0});
-  EXPECT_EQ(second.fusion_sources, 0);  // the first keyframe has no depth map
-  EXPECT_TRUE(second.points.empty());
+  EXPECT_FALSE(second.fused_now);
+  EXPECT_TRUE(second.fused.empty());
+  EXPECT_EQ(second.waiting_for_fusion, 1u);
+  EXPECT_EQ(mapper.waitingForFusion(), std::vector<int64_t>{1});
 
+  // Keyframe 2: keyframes 1 and 2 each have ONE other depth map, fewer than
+  // min_consistent_views (2): neither is fused (no cap to the views there are).
   const KeyframeResult third = mapper.process(keyframeAt(2, 1.0));
   ASSERT_TRUE(third.has_depth);
-  EXPECT_EQ(third.fusion_sources, 1);  // keyframe 1
-  ASSERT_FALSE(third.points.empty());
-  EXPECT_EQ(calls, 2);
-  for (const KeyframePoint& point : third.points) EXPECT_NEAR(point.position.z(), kWallZ, 1e-4);
+  EXPECT_FALSE(third.fused_now);
+  EXPECT_TRUE(third.fused.empty());
+  EXPECT_EQ(mapper.waitingForFusion(), (std::vector<int64_t>{1, 2}));
+  EXPECT_EQ(mapper.map().voxelCount(), 0u);
+  EXPECT_EQ(mapper.mapRevision(), 0u);
+
+  // Keyframe 3: now each has two: 1 is fused via the LATER keyframes 2 and 3,
+  // then 2 and 3, oldest first.
+  const KeyframeResult fourth = mapper.process(keyframeAt(3, 1.5));
+  ASSERT_TRUE(fourth.has_depth);
+  EXPECT_TRUE(fourth.fused_now);
+  EXPECT_EQ(fusedIds(fourth), (std::vector<int64_t>{1, 2, 3}));
+  EXPECT_EQ(fourth.fused[0].consistency_ids.size(), 2u);
+  EXPECT_EQ(std::set<int64_t>(fourth.fused[0].consistency_ids.begin(), fourth.fused[0].consistency_ids.end()),
+            (std::set<int64_t>{2, 3}));
+  EXPECT_TRUE(mapper.waitingForFusion().empty());
+  EXPECT_EQ(fourth.waiting_for_fusion, 0u);
+  EXPECT_EQ(calls, 3);
+  for (const FusedKeyframe& fused : fourth.fused) {
+    ASSERT_FALSE(fused.points.empty());
+    EXPECT_TRUE(mapper.map().contains(fused.id));
+    for (const KeyframePoint& point : fused.points)
+      EXPECT_NEAR(point.position.z() + cameraToWorld(fused.camera).translation().z(), kWallZ, 1e-4);
+  }
   const MapCloud cloud = mapper.map().exportCloud();
   ASSERT_GT(cloud.size(), 0u);
   for (const Eigen::Vector3f& p : cloud.positions) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
-  EXPECT_EQ(mapper.mapRevision(), 1u);
+  EXPECT_EQ(mapper.mapRevision(), 3u);
+
+  // Each keyframe is fused exactly once: keyframe 4 fuses only itself.
+  const KeyframeResult fifth = mapper.process(keyframeAt(4, 2.0));
+  EXPECT_EQ(fusedIds(fifth), std::vector<int64_t>{4});
+  EXPECT_EQ(mapper.mapRevision(), 4u);
+}
+
+// The estimator's depth with a blob: cameras with x in [blob_min_x,
+// blob_max_x] see a false surface at z = 4 where it covers x in [0.2, 0.8],
+// |y| <= 0.3 (world), a correlated outlier that two views agree on.
+DepthMap wallWithBlob(const DepthProblem& problem, double blob_min_x, double blob_max_x) {
+  DepthMap map = wallDepth(problem);
+  const PinholeCamera& camera = problem.reference_camera;
+  const Eigen::Vector3d centre = cameraToWorld(camera).translation();
+  if (centre.x() < blob_min_x - 1e-9 || centre.x() > blob_max_x + 1e-9) return map;
+  const double depth = 4.0 - centre.z();
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const double wx = centre.x() + depth * (x - camera.cx) / camera.fx;
+      const double wy = centre.y() + depth * (y - camera.cy) / camera.fy;
+      if (wx >= 0.2 && wx <= 0.8 && std::abs(wy) <= 0.3) map.depth.at(x, y) = static_cast<float>(depth);
+    }
+  }
+  return map;
+}
+
+size_t pointsNearerThan(const MapCloud& cloud, double z) {
+  size_t count = 0;
+  for (const Eigen::Vector3f& p : cloud.positions) count += p.z() < z;
+  return count;
+}
+
+TEST(OnlineMapper, OutlierThatOnlyOneViewChecksNeverReachesTheMap) {
+  // Keyframes 1 and 2 (x = 0.5, 1.0) share the blob; 3 and 4 see the wall.
+  const auto estimate = [](const DepthProblem& problem) { return wallWithBlob(problem, 0.5, 1.0); };
+  {
+    // Control: with one consistent view required, the blob (each of 1 and 2
+    // confirmed by the other) reaches the map, so the test can see it.
+    OnlineMapperOptions options = wallOptions();
+    options.fusion.min_consistent_views = 1;
+    OnlineMapper mapper(options, estimate);
+    for (int i = 0; i < 5; ++i) mapper.process(keyframeAt(i, 0.5 * i));
+    EXPECT_GT(pointsNearerThan(mapper.map().exportCloud(), 4.5), 0u);
+  }
+  OnlineMapper mapper(wallOptions(), estimate);  // min_consistent_views 2
+  for (int i = 0; i < 5; ++i) {
+    mapper.process(keyframeAt(i, 0.5 * i));
+    EXPECT_EQ(pointsNearerThan(mapper.map().exportCloud(), 4.5), 0u) << "after keyframe " << i;
+  }
+  EXPECT_TRUE(mapper.map().contains(1));
+  EXPECT_TRUE(mapper.map().contains(2));
+  const MapCloud cloud = mapper.map().exportCloud();
+  ASSERT_GT(cloud.size(), 0u);
+  for (const Eigen::Vector3f& p : cloud.positions) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+}
+
+TEST(OnlineMapper, WaitingKeyframeIsFusedWithItsLoopClosedPose) {
+  OnlineMapper mapper(wallOptions(), wallDepth);
+  for (int i = 0; i < 3; ++i) mapper.process(keyframeAt(i, 0.5 * i));
+  ASSERT_EQ(mapper.waitingForFusion(), (std::vector<int64_t>{1, 2}));
+  // Moved within the wall's plane, so the depth map stays exact.
+  EXPECT_TRUE(mapper.updatePose(1, test::poseAt({0.5, 0.4, 0})));
+  EXPECT_FALSE(mapper.map().contains(1));
+  EXPECT_EQ(mapper.mapRevision(), 0u);
+  const KeyframeResult result = mapper.process(keyframeAt(3, 1.5));
+  ASSERT_EQ(fusedIds(result), (std::vector<int64_t>{1, 2, 3}));
+  EXPECT_NEAR(cameraToWorld(result.fused[0].camera).translation().y(), 0.4, 1e-12);
+  EXPECT_NEAR(mapper.map().pose(1).translation().y(), 0.4, 1e-12);
+}
+
+TEST(OnlineMapper, WaitingKeyframeEvictedBeforeFusionIsCounted) {
+  OnlineMapperOptions options = wallOptions();
+  options.store.max_keyframes = 2;
+  OnlineMapper mapper(options, wallDepth);
+  mapper.process(keyframeAt(0, 0.0));
+  mapper.process(keyframeAt(1, 0.5));
+  const KeyframeResult third = mapper.process(keyframeAt(2, 1.0));  // evicts 0 (no depth map)
+  EXPECT_EQ(third.evicted, std::vector<int64_t>{0});
+  EXPECT_TRUE(third.evicted_before_fusion.empty());
+  EXPECT_EQ(mapper.waitingForFusion(), (std::vector<int64_t>{1, 2}));
+  const KeyframeResult fourth = mapper.process(keyframeAt(3, 1.5));  // evicts 1, still waiting
+  EXPECT_EQ(fourth.evicted, std::vector<int64_t>{1});
+  EXPECT_EQ(fourth.evicted_before_fusion, std::vector<int64_t>{1});
+  EXPECT_EQ(mapper.evictedBeforeFusion(), 1u);
+  EXPECT_EQ(mapper.waitingForFusion(), (std::vector<int64_t>{2, 3}));
+  EXPECT_EQ(mapper.map().voxelCount(), 0u);
+  mapper.reset();
+  EXPECT_TRUE(mapper.waitingForFusion().empty());
+  EXPECT_EQ(mapper.evictedBeforeFusion(), 0u);
 }
 
 TEST(OnlineMapper, LoopClosureMovesTheKeyframesMapPointsExactly) {
   OnlineMapper mapper(wallOptions(), wallDepth);
-  for (int i = 0; i < 3; ++i) mapper.process(keyframeAt(i, 0.5 * i));
+  for (int i = 0; i < 4; ++i) mapper.process(keyframeAt(i, 0.5 * i));
   ASSERT_TRUE(mapper.map().contains(2));
+  ASSERT_EQ(mapper.mapRevision(), 3u);  // keyframes 1, 2, 3 fused
   const MapCloud before = mapper.map().exportCloud();
   // Keyframe 2 moves 0.4 m up (y): its points move with it.
   EXPECT_TRUE(mapper.updatePose(2, test::poseAt({1.0, 0.4, 0})));
   const MapCloud after = mapper.map().exportCloud();
-  ASSERT_EQ(after.size(), before.size());
-  double mean_before = 0, mean_after = 0;
+  // Keyframes 1 and 3 share voxels with 2: compare the sums of all points
+  // (voxel mean times count), which only keyframe 2's points change.
+  const size_t points = mapper.map().storedPointCount();
+  const size_t moved = mapper.store().entry(2).points.size();
+  ASSERT_GT(moved, 0u);
+  double sum_before = 0, sum_after = 0;
+  size_t count_before = 0, count_after = 0;
   for (size_t i = 0; i < before.size(); ++i) {
-    mean_before += before.positions[i].y();
-    mean_after += after.positions[i].y();
+    sum_before += double(before.positions[i].y()) * before.counts[i];
+    count_before += before.counts[i];
   }
-  EXPECT_NEAR((mean_after - mean_before) / before.size(), 0.4, 0.03);  // within a voxel's rounding
-  EXPECT_EQ(mapper.mapRevision(), 2u);
+  for (size_t i = 0; i < after.size(); ++i) {
+    sum_after += double(after.positions[i].y()) * after.counts[i];
+    count_after += after.counts[i];
+  }
+  EXPECT_EQ(count_before, points);
+  EXPECT_EQ(count_after, points);
+  EXPECT_NEAR((sum_after - sum_before) / moved, 0.4, 1e-4);
+  EXPECT_EQ(mapper.mapRevision(), 4u);
   EXPECT_NEAR(cameraToWorld(mapper.store().keyframe(2).camera).translation().y(), 0.4, 1e-12);
   EXPECT_FALSE(mapper.updatePose(99, test::poseAt({0, 0, 0})));
   Eigen::Isometry3d bad = test::poseAt({0, 0, 0});
@@ -111,7 +247,7 @@ TEST(OnlineMapper, FailedEstimateLeavesNoPendingKeyframe) {
 
 TEST(OnlineMapper, ResetAndVoxelSizeChange) {
   OnlineMapper mapper(wallOptions(), wallDepth);
-  for (int i = 0; i < 3; ++i) mapper.process(keyframeAt(i, 0.5 * i));
+  for (int i = 0; i < 4; ++i) mapper.process(keyframeAt(i, 0.5 * i));
   const size_t voxels = mapper.map().voxelCount();
   ASSERT_GT(voxels, 0u);
   OnlineMapperOptions coarser = wallOptions();
@@ -121,9 +257,13 @@ TEST(OnlineMapper, ResetAndVoxelSizeChange) {
   EXPECT_GT(mapper.map().voxelCount(), 0u);
   coarser.sources.max_sources = 0;
   EXPECT_THROW(mapper.setOptions(coarser), InputError);
+  mapper.process(keyframeAt(10, 20.0));  // far away: no source
+  mapper.process(keyframeAt(11, 20.5));  // waits: no other depth map there
+  EXPECT_FALSE(mapper.waitingForFusion().empty());
   mapper.reset();
   EXPECT_EQ(mapper.map().voxelCount(), 0u);
   EXPECT_EQ(mapper.store().size(), 0u);
+  EXPECT_TRUE(mapper.waitingForFusion().empty());
 }
 
 }  // namespace

@@ -9,14 +9,26 @@
 //      sources' depth maps, default);
 //   4. its depth map (the injected estimate function: the caller's backend
 //      with its fallbacks);
-//   5. fusion of its depth map against the sources that have one
-//      (fuseDepthMaps; min_consistent_views is capped at that number, so the
-//      second keyframe of a run is checked against the one depth map there
-//      is); its fused points (camera frame) are stored with it;
-//   6. those points into the global VoxelMap at the keyframe's pose.
+//   5. deferred fusion: the keyframe now waits as "estimated, not fused".
+//      Every time a depth map finishes (this keyframe's included), each
+//      waiting keyframe, oldest first, is re-checked: its consistency views
+//      are the OTHER keyframes with a depth map (earlier or later ones) that
+//      pass source selection's geometric checks against it (selectSources
+//      among them, best first, at most max(sources.max_sources,
+//      fusion.min_consistent_views)). Once there are at least
+//      fusion.min_consistent_views of them (at least 1; the requirement is
+//      never capped to the views there are), its depth map is fused against
+//      them (fuseDepthMaps) exactly once and its fused points (camera frame)
+//      are stored with it;
+//   6. those points into the global VoxelMap at the keyframe's current pose.
 //
+// So the second keyframe of a run, which has one depth map to be checked
+// against, waits until enough later depth maps exist; the last keyframes of a
+// run may still wait when input stops (waitingForFusion()). A waiting
+// keyframe evicted from the store is never fused (evictedBeforeFusion()).
 // Loop closure: updatePose() re-poses the keyframe in the store and moves its
-// points in the map exactly (remove with the old pose, add with the new one).
+// points in the map exactly (remove with the old pose, add with the new one);
+// a waiting keyframe is fused later with the pose it has then.
 // Keyframes evicted from the store stay in the map (the map has its own
 // bounds and keeps their points, so they can still be re-posed).
 #pragma once
@@ -49,6 +61,16 @@ struct OnlineMapperOptions {
 // Depth estimation as the mapper calls it. Throws like DepthEstimator::estimate.
 using EstimateFunction = std::function<DepthMap(const DepthProblem&)>;
 
+// One keyframe fused into the map.
+struct FusedKeyframe {
+  int64_t id = 0;
+  double stamp = 0;                     // the keyframe's stamp
+  PinholeCamera camera;                 // the pose it was fused with
+  std::vector<int64_t> consistency_ids;  // the other depth maps it was checked against
+  KeyframePoints points;                // fused points, camera frame
+  VoxelMapUpdate map_update;
+};
+
 // What process() did with one keyframe.
 struct KeyframeResult {
   int64_t id = 0;
@@ -57,10 +79,14 @@ struct KeyframeResult {
   DepthRangeEstimate depth_range;  // when has_depth
   DepthMap depth;                // when has_depth
   PinholeCamera camera;          // the keyframe's camera (pose used)
-  int fusion_sources = 0;        // sources with a depth map the fusion checked against
-  KeyframePoints points;         // fused points, camera frame (empty without fusion sources)
-  VoxelMapUpdate map_update;
+  // Every keyframe fused by this call, in fusion order (oldest waiting
+  // first): earlier waiting keyframes that this depth map completed, and
+  // this keyframe when it had enough consistency views at once.
+  std::vector<FusedKeyframe> fused;
+  bool fused_now = false;        // this keyframe is among `fused`
   std::vector<int64_t> evicted;  // keyframes evicted from the store
+  std::vector<int64_t> evicted_before_fusion;  // of those, the ones that waited for fusion
+  size_t waiting_for_fusion = 0;  // keyframes waiting after this call
 };
 
 class OnlineMapper {
@@ -78,6 +104,12 @@ class OnlineMapper {
   // for a bad pose.
   bool updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world);
 
+  // Keyframes with a depth map that wait for fusion, oldest first.
+  const std::vector<int64_t>& waitingForFusion() const { return waiting_; }
+  // Waiting keyframes evicted from the store before they were fused (since
+  // construction or reset).
+  size_t evictedBeforeFusion() const { return evicted_before_fusion_; }
+
   // Forgets every keyframe and empties the map.
   void reset();
 
@@ -92,14 +124,22 @@ class OnlineMapper {
   uint64_t mapRevision() const { return map_revision_; }
 
  private:
-  // Fuses keyframe `id`'s depth map against its sources' depth maps.
-  KeyframePoints fuse(int64_t id, const std::vector<int64_t>& source_ids, int* fusion_sources) const;
+  // The consistency views of a keyframe with a depth map (see step 5).
+  std::vector<int64_t> consistencyViews(int64_t id) const;
+  // Fuses keyframe `id`'s depth map against the consistency views.
+  KeyframePoints fuse(int64_t id, const std::vector<int64_t>& view_ids) const;
+  // Re-checks every waiting keyframe; fuses those with enough views.
+  void fuseWaiting(KeyframeResult* result);
+  // Records evictions in the result; drops evicted waiting keyframes.
+  void noteEvicted(const std::vector<int64_t>& evicted, KeyframeResult* result);
 
   OnlineMapperOptions options_;
   EstimateFunction estimate_;
   KeyframeStore store_;
   VoxelMap map_;
   uint64_t map_revision_ = 0;
+  std::vector<int64_t> waiting_;  // estimated, not fused; oldest first
+  size_t evicted_before_fusion_ = 0;
 };
 
 }  // namespace amhmvs

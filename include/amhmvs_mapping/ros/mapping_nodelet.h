@@ -168,6 +168,9 @@ class MappingNodelet : public nodelet::Nodelet {
   std::unique_ptr<MappingConfig> pending_config_;      // from reconfigure(), for the worker
   bool stop_ = false;
   std::atomic<bool> paused_{false};
+  // Worker: headers (stamp, optical frame) of the keyframes that wait for
+  // fusion, for their keyframe_cloud once fused.
+  std::map<int64_t, std_msgs::Header> waiting_headers_;
   std::atomic<bool> reset_requested_{false};
   std::thread worker_;
 
