@@ -92,6 +92,12 @@ KnownNames collectKnownNames(const fs::path& root) {
     if (entry.path().extension() == ".cpp")
       for (const std::string& value : captures(readText(entry.path()), compared)) known.words.insert(value);
   }
+  // Diagnostic keys the nodelet reports (counters and status entries).
+  static const std::regex diagnostic(R"((?:counts_\[|status\.add\()\s*"([^"]+)\")");
+  for (const auto& entry : fs::directory_iterator(root / "src/ros")) {
+    if (entry.path().extension() == ".cpp")
+      for (const std::string& key : captures(readText(entry.path()), diagnostic)) known.words.insert(key);
+  }
   // Message and service types, and their field names (a service's `path`).
   static const std::regex field(R"((?:^|\n)\s*[A-Za-z][\w/]*(?:\[\d*\])?\s+(\w+)\s*(?:#[^\n]*)?(?=\n|$))");
   for (const char* folder : {"msg", "srv"}) {
