@@ -41,18 +41,19 @@ struct GpuSampler {
 
 constexpr int kBlockX = 16, kBlockY = 8;
 // Minimum resident blocks per multiprocessor asked of the compiler for the
-// update kernel, which caps its registers (65536 / (128 * blocks)). More
+// initialisation and update kernels, which caps their registers (65536 / (128 * blocks)). More
 // resident warps hide texture latency; too few registers spill. Measured by
 // scripts/gpu_check.sh (step "variants").
 #ifndef AMHMVS_UPDATE_MIN_BLOCKS
 #define AMHMVS_UPDATE_MIN_BLOCKS 4
 #endif
 
-
 // Reference window samples of the paper's window in shared memory, sample
 // major so that a warp reads consecutive 8-byte words: 36 x 8 B per thread
 // instead of 72 registers.
 constexpr int kBlockThreads = kBlockX * kBlockY;
+__device__ int threadInBlock() { return threadIdx.y * blockDim.x + threadIdx.x; }
+
 struct SharedSamples {
   WindowSample* first;  // this thread's sample 0
   __device__ WindowSample& operator[](int i) const { return first[i * kBlockThreads]; }
@@ -61,11 +62,11 @@ struct SharedSamples {
 // Storage of the reference window in the initialisation and update
 // kernels, per window shape.
 template <class Window>
-struct UpdateWindowStorage {
+struct WindowStorage {
   __device__ static InlineSamples get(int) { return {}; }
 };
 template <>
-struct UpdateWindowStorage<PaperWindow> {
+struct WindowStorage<PaperWindow> {
   __device__ static SharedSamples get(int thread) {
     constexpr int kSamples = PaperWindow::perAxis() * PaperWindow::perAxis();
     __shared__ WindowSample samples[kSamples * kBlockThreads];
@@ -79,28 +80,26 @@ __global__ void __launch_bounds__(kBlockThreads, AMHMVS_UPDATE_MIN_BLOCKS)
   const int x = blockIdx.x * blockDim.x + threadIdx.x;
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
   if (x < P.width && y < P.height) {
-    initializePixel<Window>(P, sampler, state, x, y,
-                            UpdateWindowStorage<Window>::get(threadIdx.y * blockDim.x + threadIdx.x));
+    initializePixel<Window>(P, sampler, state, x, y, WindowStorage<Window>::get(threadInBlock()));
   }
 }
 
 // One thread per pixel of `colour`: thread column i handles x = 2 i + parity.
 template <class Window>
-__global__ void __launch_bounds__(kBlockX * kBlockY, AMHMVS_UPDATE_MIN_BLOCKS)
-    updateKernel(PatchMatchParams P, GpuSampler sampler, PixelState state,
-                             int iteration, int colour) {
+__global__ void __launch_bounds__(kBlockThreads, AMHMVS_UPDATE_MIN_BLOCKS)
+    updateKernel(PatchMatchParams P, GpuSampler sampler, PixelState state, int iteration,
+                 int colour) {
   // Threads score hypotheses on different views after view selection: the
   // geometry is read from shared memory (kernel parameters serialise
   // divergent indices).
   __shared__ SourceGeometry sources[kMaxSourceViews];
-  const int thread = threadIdx.y * blockDim.x + threadIdx.x;
-  for (int j = thread; j < P.num_sources; j += blockDim.x * blockDim.y) sources[j] = P.sources[j];
+  for (int j = threadInBlock(); j < P.num_sources; j += kBlockThreads) sources[j] = P.sources[j];
   __syncthreads();
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
   const int x = 2 * (blockIdx.x * blockDim.x + threadIdx.x) + ((y + colour) & 1);
   if (x < P.width && y < P.height) {
     updatePixel<Window>(P, sources, sampler, state, iteration, x, y,
-                        UpdateWindowStorage<Window>::get(thread));
+                        WindowStorage<Window>::get(threadInBlock()));
   }
 }
 

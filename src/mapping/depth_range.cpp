@@ -50,6 +50,15 @@ std::string rangeText(double min, double max) {
   return out.str();
 }
 
+// Appends the z-depth of `point` (camera frame) when the camera sees it:
+// finite, in front and inside the image.
+void addDepthIfSeen(const PinholeCamera& camera, const Eigen::Vector3d& point,
+                    std::vector<double>* depths) {
+  if (point.allFinite() && point.z() > 0 && camera.contains(camera.project(point))) {
+    depths->push_back(point.z());
+  }
+}
+
 }  // namespace
 
 const char* depthRangeSourceName(DepthRangeSource source) {
@@ -115,10 +124,7 @@ DepthRangeEstimate estimateDepthRange(const Keyframe& keyframe,
   // 2. Sparse points in front of the camera and inside the image.
   std::vector<double> depths;
   for (const Eigen::Vector3d& world : keyframe.sparse_points) {
-    const Eigen::Vector3d point = camera.toCamera(world);
-    if (point.allFinite() && point.z() > 0 && camera.contains(camera.project(point))) {
-      depths.push_back(point.z());
-    }
+    addDepthIfSeen(camera, camera.toCamera(world), &depths);
   }
   if (static_cast<int>(depths.size()) >= options.min_sparse_points) {
     std::string why;
@@ -161,10 +167,7 @@ DepthRangeEstimate estimateDepthRange(const Keyframe& keyframe,
       for (int x = 0; x < depth.width; x += options.depth_map_stride) {
         const double d = depth.at(x, y);
         if (!(std::isfinite(d) && d > 0)) continue;
-        const Eigen::Vector3d point = to_target.R * other.backproject(x, y, d) + to_target.t;
-        if (point.allFinite() && point.z() > 0 && camera.contains(camera.project(point))) {
-          depths.push_back(point.z());
-        }
+        addDepthIfSeen(camera, to_target.R * other.backproject(x, y, d) + to_target.t, &depths);
       }
     }
   }
