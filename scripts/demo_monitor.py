@@ -13,10 +13,10 @@ Subscribes and calls (remap as needed):
   save_map                  the nodelet's ~save_map service (amhmvs_mapping/SaveMap)
 Parameters:
   ~output_dir       where map.ply, depth/, summary.txt and summary.json go
-  ~expected_frames  frames in the bag: the run ends once the nodelet has processed
-                    all of them (depth map, no source, not a keyframe, dropped);
-                    keyframes the nodelet has not fused into the map by then
-                    are not waited for
+  ~expected_frames  frames in the bag: the run ends once the nodelet has received
+                    all of them and is idle (every depth map out, late ones
+                    included); keyframes the nodelet has not fused into the
+                    map by then are not waited for
   ~timeout          wall seconds before giving up (exit 1), default 900
   ~fixed_frame      default world
   ~stay_while_node  default "": after the summary, keep running (and so keep the
@@ -107,7 +107,8 @@ class DemoMonitor:
         self.ground_truth = {}      # stamp -> depth array
         self.depth = {}             # stamp -> (depth array, wall ms since the previous one), until evaluated
         self.camera_info = {}       # stamp -> CameraInfo of the depth image
-        self.evaluated = []         # per keyframe: stamp, counts, total
+        self.evaluated = {}         # stamp -> its latest depth map's stamp, counts, total, index
+        self.refined = 0            # depth maps that replaced an earlier one of their keyframe
         self.progress = []          # (depth maps count, line) waiting for diagnostics with that count
         self.diagnostics = {}
         self.estimate_ms = {}       # depth map count -> "last estimate ms" seen with it
@@ -172,10 +173,16 @@ class DemoMonitor:
                 error = np.abs(estimate[valid] - truth[valid]) / truth[valid]
             within = [int(np.count_nonzero(error < t)) for t in THRESHOLDS]  # NaN counts as wrong
             total = int(np.count_nonzero(valid))
-            index = len(self.evaluated) + 1
-            self.evaluated.append({"stamp": seconds(stamp), "within": within, "total": total, "wall_ms": wall_ms})
+            # A refined depth map (the nodelet re-estimated the keyframe with
+            # better sources) replaces the earlier one of that keyframe.
+            refined = stamp in self.evaluated
+            self.refined += refined
+            index = self.evaluated[stamp]["index"] if refined else len(self.evaluated) + 1
+            self.evaluated[stamp] = {"stamp": seconds(stamp), "within": within, "total": total, "wall_ms": wall_ms,
+                                     "index": index}
             colour_depth_pair(estimate, truth, os.path.join(self.output_dir, "depth", f"{index:04d}.png"))
-            self.progress.append((index, f"keyframe {index} (t={seconds(stamp) - self.first_stamp:.2f} s): "
+            self.progress.append((index, f"keyframe {index}{' refined' if refined else ''} "
+                                  f"(t={seconds(stamp) - self.first_stamp:.2f} s): "
                                   + " / ".join(f"{100.0 * w / max(total, 1):.1f}" for w in within)
                                   + f" % within 1/2/5 % of ground truth, {wall_ms:.0f} ms"))
             self.print_progress()
@@ -204,21 +211,16 @@ class DemoMonitor:
         return int(np.count_nonzero(np.isfinite(best))), int(np.count_nonzero(best < SURFACE_TOLERANCE))
 
     # ------------------------------------------------------------ end state --
-    def accounted_frames(self):
-        """Frames the nodelet has finished with, from its diagnostics counters."""
-        d = self.diagnostics
-        dropped = sum(int(value) for key, value in d.items() if key.startswith("dropped: "))
-        return (int(d.get("depth_maps", 0)) + int(d.get("keyframes_without_sources", 0)) +
-                int(d.get("frames_not_keyframes", 0)) + dropped)
-
     def finished(self):
-        """The nodelet has processed every frame and each depth map is evaluated
+        """The nodelet has received every frame, is idle (nothing left to
+        estimate, late depth maps included) and each depth map is evaluated
         (whether the nodelet has fused every keyframe into its map is not asked)."""
         with self.lock:
-            if not self.diagnostics or int(self.diagnostics.get("queued", 1)) != 0:
+            d = self.diagnostics
+            if not d or d.get("idle") != "True":
                 return False
-            return (self.accounted_frames() >= self.expected_frames and
-                    self.depth_count >= int(self.diagnostics.get("depth_maps", 0)) and not self.depth)
+            return (int(d.get("frames_received", 0)) >= self.expected_frames and
+                    self.depth_count >= int(d.get("depth_maps", 0)) and not self.depth)
 
     def save_map(self):
         """The nodelet's map written to map.ply by its save_map service: (path, problem or "")."""
@@ -231,18 +233,21 @@ class DemoMonitor:
         return path, "" if response.success else response.message
 
     def summary(self, completed, map_path, xyz):
-        within = np.sum([k["within"] for k in self.evaluated], axis=0) if self.evaluated else np.zeros(3)
-        total = sum(k["total"] for k in self.evaluated)
+        evaluated = list(self.evaluated.values())
+        within = np.sum([k["within"] for k in evaluated], axis=0) if evaluated else np.zeros(3)
+        total = sum(k["total"] for k in evaluated)
         checked, on_surface = self.map_on_surface(xyz)
         d = self.diagnostics
         dropped = {k[len("dropped: "):]: int(v) for k, v in d.items() if k.startswith("dropped: ")}
-        wall = [k["wall_ms"] for k in self.evaluated]
+        wall = [k["wall_ms"] for k in evaluated]
         return {
             "completed": completed,
             "backend": d.get("backend", "unknown"),
             "frames": self.expected_frames,
             "keyframes_processed": len(self.evaluated),
-            "keyframes_without_sources": int(d.get("keyframes_without_sources", 0)),
+            "keyframes_late": int(d.get("late_depth_maps", 0)),
+            "keyframes_refined": self.refined,
+            "keyframes_without_depth": int(d.get("keyframes_waiting_for_sources", 0)),
             "dropped": dropped,
             "estimate_ms_per_keyframe": float(np.mean(list(self.estimate_ms.values()))) if self.estimate_ms else None,
             "estimate_ms_samples": len(self.estimate_ms),
@@ -265,7 +270,9 @@ def summary_text(s):
     return "\n".join([
         "== amhmvs demo summary ==" + ("" if s["completed"] else " (INCOMPLETE: see the errors above)"),
         f"keyframes processed:  {s['keyframes_processed']} depth maps from {s['frames']} frames "
-        f"({s['keyframes_without_sources']} without source views, dropped: {s['dropped'] or 'none'}), backend {s['backend']}",
+        f"({s['keyframes_late']} estimated late, {s['keyframes_refined']} refined, "
+        f"{s['keyframes_without_depth']} still without source views, "
+        f"dropped: {s['dropped'] or 'none'}), backend {s['backend']}",
         f"time per keyframe:    {ms(s['estimate_ms_per_keyframe'])} estimation (nodelet, {s['estimate_ms_samples']} sampled), "
         f"{ms(s['wall_ms_per_keyframe'])} wall",
         f"depth accuracy:       {within} % of {s['depth_pixels_evaluated']} ground-truth pixels within 1 / 2 / 5 % "

@@ -34,7 +34,23 @@ FusionView fusionView(int local_id, const StoredKeyframe& stored) {
   return view;
 }
 
+// Total score of the selected sources (they come first among the candidates).
+double selectionScore(const SourceSelection& selection) {
+  double score = 0;
+  for (size_t i = 0; i < selection.source_ids.size() && i < selection.candidates.size(); ++i)
+    score += selection.candidates[i].score;
+  return score;
+}
+
 }  // namespace
+
+std::string RefinementOptions::validate() const {
+  std::ostringstream why;
+  if (max_refinements < 0) why << "max_refinements must be >= 0 (got " << max_refinements << ")\n";
+  if (!(std::isfinite(min_score_gain) && min_score_gain > 1))
+    why << "min_score_gain must be finite and > 1 (got " << min_score_gain << ")\n";
+  return why.str();
+}
 
 std::string OnlineMapperOptions::validate() const {
   std::ostringstream out;
@@ -43,6 +59,7 @@ std::string OnlineMapperOptions::validate() const {
   appendProblems("depth_range", depth_range.validate(), &out);
   appendProblems("fusion", fusion.validate(), &out);
   appendProblems("map", map.validate(), &out);
+  appendProblems("refinement", refinement.validate(), &out);
   if (fusion.min_consistent_views > kMaxSourceViews)
     out << "fusion: min_consistent_views must be at most " << kMaxSourceViews << " (the most consistency views)\n";
   return out.str();
@@ -61,50 +78,106 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
   result.camera = keyframe.camera;
   noteEvicted(store_.add(std::move(keyframe)), &result);
   const int64_t id = result.id;
-  const StoredKeyframe& stored = store_.entry(id);
   result.selection = selectSources(store_, id, options_.sources);
 
   if (result.selection.source_ids.empty()) {
     // Kept as a source: done, with a depth map that has no valid pixel.
+    const PinholeCamera& camera = store_.keyframe(id).camera;
     DepthMap none;
-    none.depth = ImageF(stored.keyframe.camera.width, stored.keyframe.camera.height, 1,
-                        std::numeric_limits<float>::quiet_NaN());
+    none.depth = ImageF(camera.width, camera.height, 1, std::numeric_limits<float>::quiet_NaN());
     noteEvicted(store_.attachDepth(id, std::move(none)), &result);
+    if (store_.contains(id)) waiting_for_sources_.push_back(id);
     result.waiting_for_fusion = waiting_.size();
     return result;
   }
   store_.setSources(id, result.selection.source_ids);
-  result.depth_range = estimateDepthRange(store_, id, result.selection.source_ids, options_.depth_range);
-
-  DepthProblem problem;
-  problem.reference_camera = stored.keyframe.camera;
-  problem.reference_image = toGray(stored.keyframe.image);
-  for (int64_t source : result.selection.source_ids) {
-    const Keyframe& view = store_.keyframe(source);
-    problem.source_cameras.push_back(view.camera);
-    problem.source_images.push_back(toGray(view.image));
-  }
-  problem.depth_min = result.depth_range.min;
-  problem.depth_max = result.depth_range.max;
   try {
-    result.depth = estimate_(problem);
+    estimateAndFuse(id, &result);
   } catch (...) {
     store_.remove(id);
     throw;
   }
-  result.has_depth = true;
-  noteEvicted(store_.attachDepth(id, result.depth), &result);
-  // A keyframe with a depth map waits for fusion; this depth map may also
-  // complete earlier waiting keyframes.
-  if (store_.contains(id)) waiting_.push_back(id);
-  fuseWaiting(&result);
-  result.waiting_for_fusion = waiting_.size();
   return result;
+}
+
+bool OnlineMapper::estimateLate(KeyframeResult* result) {
+  for (const int64_t id : waiting_for_sources_) {
+    SourceSelection selection = selectSources(store_, id, options_.sources);
+    if (selection.source_ids.empty()) continue;
+    waiting_for_sources_.erase(std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id));
+    *result = KeyframeResult();
+    result->id = id;
+    result->late = true;
+    result->camera = store_.keyframe(id).camera;
+    result->selection = std::move(selection);
+    // Done already (as a source only): nothing is pending, so the sources
+    // need no protection from eviction while the depth map is computed.
+    estimateAndFuse(id, result);
+    return true;
+  }
+  return false;
+}
+
+bool OnlineMapper::refine(KeyframeResult* result) {
+  if (options_.refinement.max_refinements == 0) return false;
+  for (auto& [id, record] : estimates_) {
+    if (record.refinements >= options_.refinement.max_refinements) continue;
+    SourceSelection selection = selectSources(store_, id, options_.sources);
+    std::vector<int64_t> before = record.sources, now = selection.source_ids;
+    std::sort(before.begin(), before.end());
+    std::sort(now.begin(), now.end());
+    if (now == before || selectionScore(selection) < options_.refinement.min_score_gain * record.score) continue;
+    const int refinements = ++record.refinements;  // counted also when the estimate throws
+    const int64_t refined_id = id;
+    *result = KeyframeResult();
+    result->id = refined_id;
+    result->refined = true;
+    result->camera = store_.keyframe(refined_id).camera;
+    result->selection = std::move(selection);
+    estimateAndFuse(refined_id, result);  // resets the record (may even evict the keyframe)
+    const auto kept = estimates_.find(refined_id);
+    if (kept != estimates_.end()) kept->second.refinements = refinements;
+    return true;
+  }
+  return false;
+}
+
+void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
+  const std::vector<int64_t>& sources = result->selection.source_ids;
+  result->depth_range = estimateDepthRange(store_, id, sources, options_.depth_range);
+  DepthProblem problem;
+  problem.reference_camera = store_.keyframe(id).camera;
+  problem.reference_image = toGray(store_.keyframe(id).image);
+  for (int64_t source : sources) {
+    const Keyframe& view = store_.keyframe(source);
+    problem.source_cameras.push_back(view.camera);
+    problem.source_images.push_back(toGray(view.image));
+  }
+  problem.depth_min = result->depth_range.min;
+  problem.depth_max = result->depth_range.max;
+  result->depth = estimate_(problem);
+  result->has_depth = true;
+  noteEvicted(store_.attachDepth(id, result->depth), result);
+  if (!store_.contains(id)) return;
+  EstimateRecord& record = estimates_[id];
+  record.sources = sources;
+  record.score = selectionScore(result->selection);
+  // A keyframe with a depth map waits for fusion (a refined one again); this
+  // depth map may also complete earlier waiting keyframes.
+  if (std::find(waiting_.begin(), waiting_.end(), id) == waiting_.end()) waiting_.push_back(id);
+  fuseWaiting(result);
+  result->waiting_for_fusion = waiting_.size();
 }
 
 void OnlineMapper::noteEvicted(const std::vector<int64_t>& evicted, KeyframeResult* result) {
   for (int64_t id : evicted) {
     result->evicted.push_back(id);
+    estimates_.erase(id);
+    const auto without_depth = std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id);
+    if (without_depth != waiting_for_sources_.end()) {
+      waiting_for_sources_.erase(without_depth);
+      ++evicted_without_depth_;
+    }
     const auto waiting = std::find(waiting_.begin(), waiting_.end(), id);
     if (waiting == waiting_.end()) continue;
     waiting_.erase(waiting);
@@ -124,12 +197,16 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
     if (fused.consistency_ids.size() < required) continue;
     waiting_.erase(std::find(waiting_.begin(), waiting_.end(), id));
     fused.id = id;
+    fused.again = map_.contains(id);
     fused.stamp = store_.keyframe(id).stamp;
     fused.camera = store_.keyframe(id).camera;
     fused.points = fuse(id, fused.consistency_ids);
     if (!fused.points.empty()) {
       noteEvicted(store_.attachPoints(id, fused.points), result);
-      fused.map_update = map_.addKeyframe(id, store_.keyframe(id).cameraToWorld(), fused.points);
+      fused.map_update = map_.addKeyframe(id, store_.keyframe(id).cameraToWorld(), fused.points);  // replaces
+      ++map_revision_;
+    } else if (fused.again) {
+      map_.removeKeyframe(id);  // the refined depth map confirms nothing of the old points
       ++map_revision_;
     }
     if (id == result->id) result->fused_now = true;
@@ -179,6 +256,9 @@ void OnlineMapper::reset() {
   store_ = KeyframeStore(options_.store);
   waiting_.clear();
   evicted_before_fusion_ = 0;
+  waiting_for_sources_.clear();
+  evicted_without_depth_ = 0;
+  estimates_.clear();
   map_ = VoxelMap(options_.map);
   ++map_revision_;
 }

@@ -15,6 +15,10 @@ constexpr int64_t kIndexBits = 21;
 constexpr int64_t kIndexOffset = int64_t{1} << (kIndexBits - 1);
 constexpr int64_t kIndexMask = (int64_t{1} << kIndexBits) - 1;
 
+// The key of a point outside the region of interest: in no voxel (a packed
+// key uses 63 bits).
+constexpr uint64_t kOutsideRegion = ~uint64_t{0};
+
 bool indexInRange(double index) { return index >= -kIndexOffset && index < kIndexOffset; }
 
 uint64_t packKey(int64_t ix, int64_t iy, int64_t iz) {
@@ -44,6 +48,11 @@ std::string VoxelMapOptions::validate() const {
   if (max_voxels == 0) why << "max_voxels must be positive\n";
   if (max_points == 0) why << "max_points must be positive\n";
   if (max_keyframes == 0) why << "max_keyframes must be positive\n";
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!(region_min[axis] < region_max[axis]))  // also catches NaN
+      why << "region_min must be below region_max on every axis (axis " << axis << ": " << region_min[axis]
+          << " .. " << region_max[axis] << ")\n";
+  }
   return why.str();
 }
 
@@ -110,6 +119,10 @@ void VoxelMap::accumulate(const PlacedPoint& placed, const KeyframePoint& point,
 void VoxelMap::removeContribution(const KeyframeContribution& contribution) {
   PlacedPoint placed;
   for (size_t i = 0; i < contribution.points.size(); ++i) {
+    if (contribution.keys[i] == kOutsideRegion) {
+      --points_outside_region_;
+      continue;
+    }
     // Recomputed exactly as when added; the stored key guards against any
     // difference in rounding (the sums are subtracted from the same voxel).
     place(contribution.camera_to_world, contribution.points[i], &placed);
@@ -149,6 +162,9 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
       ++update.dropped_over_budget;
       continue;
     }
+    const bool inside = (p.world.array() >= options_.region_min.array()).all() &&
+                        (p.world.array() <= options_.region_max.array()).all();
+    if (!inside) p.key = kOutsideRegion;
     placed.push_back(p);
     contribution.points.push_back(point);
   }
@@ -158,7 +174,7 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
   const auto newVoxelsNeeded = [&]() {
     std::unordered_set<uint64_t> fresh;
     for (const PlacedPoint& p : placed) {
-      if (voxels_.count(p.key) == 0) fresh.insert(p.key);
+      if (p.key != kOutsideRegion && voxels_.count(p.key) == 0) fresh.insert(p.key);
     }
     return fresh.size();
   };
@@ -178,15 +194,21 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
   kept.points.reserve(placed.size());
   kept.keys.reserve(placed.size());
   for (size_t i = 0; i < placed.size(); ++i) {
-    if (voxels_.size() >= options_.max_voxels && voxels_.count(placed[i].key) == 0) {
+    const bool inside = placed[i].key != kOutsideRegion;
+    if (inside && voxels_.size() >= options_.max_voxels && voxels_.count(placed[i].key) == 0) {
       ++update.dropped_over_budget;
       continue;
     }
-    accumulate(placed[i], contribution.points[i], 1.0);
+    if (inside) {
+      accumulate(placed[i], contribution.points[i], 1.0);
+      ++update.added_points;
+    } else {
+      ++update.outside_region;
+    }
     kept.points.push_back(contribution.points[i]);
     kept.keys.push_back(placed[i].key);
   }
-  update.added_points = kept.points.size();
+  points_outside_region_ += update.outside_region;
   stored_points_ += kept.points.size();
   keyframes_[id] = std::move(kept);
   order_[sequence] = id;

@@ -40,6 +40,14 @@ void read(const ros::NodeHandle& nh, const std::string& name, size_t* value) {
   nh.param(name, v, v);
   *value = v < 0 ? 0 : static_cast<size_t>(v);
 }
+// A point [x, y, z]; [] keeps the value (unbounded); a list of another
+// length reads as NaN, which the options' validate() reports.
+void read(const ros::NodeHandle& nh, const std::string& name, Eigen::Vector3d* value) {
+  std::vector<double> list;
+  if (!nh.getParam(name, list) || list.empty()) return;
+  *value = list.size() == 3 ? Eigen::Vector3d(list[0], list[1], list[2])
+                            : Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+}
 // Fusion thresholds: 0 on the parameter server switches a check off
 // (FusionOptions uses +infinity, which XML-RPC cannot carry).
 void readThreshold(const ros::NodeHandle& nh, const std::string& name, float* value) {
@@ -79,6 +87,11 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
 
   read(nh, "map/voxel_size", &o->map.leaf_size);
   read(nh, "map/max_voxels", &o->map.max_voxels);
+  read(nh, "map/region_min", &o->map.region_min);
+  read(nh, "map/region_max", &o->map.region_max);
+
+  read(nh, "refinement/max_refinements", &o->refinement.max_refinements);
+  read(nh, "refinement/min_score_gain", &o->refinement.min_score_gain);
 }
 
 // Each group of the mapping core checked on its own: a bad group is
@@ -159,6 +172,7 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
   requireValid("depth_range", &c.mapper.depth_range, defaults.mapper.depth_range, &err);
   requireValid("fusion", &c.mapper.fusion, defaults.mapper.fusion, &err);
   requireValid("map", &c.mapper.map, defaults.mapper.map, &err);
+  requireValid("refinement", &c.mapper.refinement, defaults.mapper.refinement, &err);
 
   // Estimator options: every entry of the option table, as ~estimator/<name>.
   for (const amhmvs::OptionInfo& option : amhmvs::patchMatchOptionTable()) {

@@ -59,8 +59,18 @@ void MappingNodelet::onInit() {
   confidence_pub_ = it_->advertise("confidence/image", 5);
   preview_pub_ = it_->advertise("depth/preview", 5);
   cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("keyframe_cloud", 5);
-  // Latched: a late subscriber (rviz) gets the current map at once.
-  map_pub_ = nh.advertise<sensor_msgs::PointCloud2>("map", 1, true);
+  // Latched: a late subscriber (rviz) gets the last map at once, and its
+  // connection asks the worker for a current one (no export without subscribers).
+  map_pub_ = nh.advertise<sensor_msgs::PointCloud2>(
+      "map", 1,
+      [this](const ros::SingleSubscriberPublisher&) {
+        {
+          std::lock_guard<std::mutex> lock(queue_mutex_);
+          map_requested_ = true;
+        }
+        queue_cv_.notify_one();
+      },
+      ros::SubscriberStatusCallback(), ros::VoidConstPtr(), true);
   markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("keyframe_markers", 5);
 
   // Services.
@@ -262,8 +272,8 @@ void MappingNodelet::offer(Frame frame, const geometry_msgs::Pose& pose, bool pi
   }
   have_last_keyframe_ = true;
   last_keyframe_pose_ = frame.camera_to_world;
-  count("keyframes_received");
   enqueue(std::move(frame));
+  count("keyframes_received");  // after enqueue: with this count, idle is false
 }
 
 void MappingNodelet::enqueue(Frame frame) {
@@ -271,6 +281,7 @@ void MappingNodelet::enqueue(Frame frame) {
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     if (stop_) return;
+    worker_idle_ = false;
     while (queue_.size() >= static_cast<size_t>(config_.queue_size)) {
       queue_.pop_front();
       ++dropped;
@@ -365,21 +376,24 @@ void MappingNodelet::workerLoop() {
       return map;
     }));
   }
-  publishMap(true);  // an empty map, so that latched subscribers see the frame
 
   const std::chrono::duration<double> map_period(config_.map_publish_period);
   std::map<int64_t, Eigen::Isometry3d> updates;
   std::unique_ptr<MappingConfig> next_config;
   while (true) {
+    bool map_wanted = false;  // a subscriber connected to ~map
     Frame frame;
     bool have_frame = false;
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
-      // Wakes at the map rate at the latest, to republish it.
-      queue_cv_.wait_for(lock, map_period, [this] {
-        return stop_ || !queue_.empty() || !pose_updates_.empty() || pending_config_;
+      // Wakes at the map rate at the latest, to republish it; at once while
+      // late work (late depth maps, refinements) may remain.
+      queue_cv_.wait_for(lock, worker_idle_ ? map_period : std::chrono::duration<double>(0), [this] {
+        return stop_ || !queue_.empty() || !pose_updates_.empty() || pending_config_ || map_requested_;
       });
       if (stop_) break;
+      map_wanted = map_requested_;
+      map_requested_ = false;
       next_config.swap(pending_config_);
       updates.swap(pose_updates_);
       if (!queue_.empty()) {
@@ -393,7 +407,7 @@ void MappingNodelet::workerLoop() {
     if (reset_requested_.exchange(false)) {
       std::lock_guard<std::mutex> lock(mapper_mutex_);
       mapper_->reset();
-      waiting_headers_.clear();
+      keyframe_headers_.clear();
     }
     if (!updates.empty()) applyPoseUpdates(std::move(updates));
     updates.clear();
@@ -404,8 +418,18 @@ void MappingNodelet::workerLoop() {
         drop("processing_error", "keyframe " + std::to_string(frame.id) + ": " + e.what());
       }
     }
+    // At most one late depth map per pass, refinements only when no keyframe
+    // waits: new keyframes keep their rate.
+    bool late = estimateLate();
+    if (!late && queueEmpty()) late = refine();
+    // Idle: nothing was left to do in this pass (for monitors and tests:
+    // every output of the input so far is out).
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);  // enqueue() clears it under this lock
+      worker_idle_ = !have_frame && !late && queue_.empty();
+    }
     const bool due = (ros::WallTime::now() - last_map_publish_).toSec() >= config_.map_publish_period;
-    publishMap(due);
+    publishMap(due || map_wanted);
   }
 }
 
@@ -459,46 +483,101 @@ void MappingNodelet::process(const Frame& frame) {
       drop("backend_error", "keyframe " + std::to_string(frame.id) + ": " + e.what());
       return;
     }
+  }
+  std_msgs::Header header;
+  header.stamp = frame.stamp;
+  header.frame_id = frame.optical_frame;
+  handleResult(result, header);
+}
+
+bool MappingNodelet::estimateLate() {
+  return lateWork("late", [this](amhmvs::KeyframeResult* result) { return mapper_->estimateLate(result); });
+}
+
+bool MappingNodelet::refine() {
+  return lateWork("refinement", [this](amhmvs::KeyframeResult* result) { return mapper_->refine(result); });
+}
+
+bool MappingNodelet::queueEmpty() {
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  return queue_.empty();
+}
+
+bool MappingNodelet::lateWork(const char* what,
+                              const std::function<bool(amhmvs::KeyframeResult*)>& step) {
+  amhmvs::KeyframeResult result;
+  {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    try {
+      if (!step(&result)) return false;
+    } catch (const std::exception& e) {
+      // A late keyframe stays a source only; a refined one keeps its depth map.
+      drop(std::string(what) + "_estimate_failed", "keyframe " + std::to_string(result.id) + ": " + e.what());
+      return true;
+    }
+  }
+  const auto stored = keyframe_headers_.find(result.id);
+  if (stored == keyframe_headers_.end()) return true;  // cannot happen: every stored keyframe has one
+  NODELET_INFO("keyframe %ld: %s depth map from %zu source views (best: keyframe %ld)", static_cast<long>(result.id),
+               what, result.selection.source_ids.size(), static_cast<long>(result.selection.source_ids.front()));
+  if (result.late)
+    count("late_depth_maps");
+  else
+    count("refined_depth_maps");
+  handleResult(result, stored->second);
+  return true;
+}
+
+void MappingNodelet::handleResult(const amhmvs::KeyframeResult& result, const std_msgs::Header& header) {
+  {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
     std::lock_guard<std::mutex> stats(stats_mutex_);
     counts_["stored_keyframes"] = mapper_->store().size();
     counts_["keyframes_evicted"] = mapper_->store().evictedCount();
-    counts_["keyframes_waiting_for_fusion"] = result.waiting_for_fusion;
+    counts_["keyframes_waiting_for_fusion"] = mapper_->waitingForFusion().size();
     counts_["keyframes_evicted_before_fusion"] = mapper_->evictedBeforeFusion();
+    counts_["keyframes_waiting_for_sources"] = mapper_->waitingForSources().size();
+    counts_["keyframes_evicted_without_depth"] = mapper_->evictedWithoutDepth();
     map_voxels_ = mapper_->map().voxelCount();
   }
-  for (int64_t id : result.evicted_before_fusion) {
-    waiting_headers_.erase(id);
-    NODELET_WARN("keyframe %ld: evicted from the store before it could be fused (never in the map)",
-                 static_cast<long>(id));
+  if (!result.late && !result.refined) keyframe_headers_[result.id] = header;
+  for (int64_t id : result.evicted) {
+    keyframe_headers_.erase(id);
+    const bool unfused = std::count(result.evicted_before_fusion.begin(), result.evicted_before_fusion.end(), id);
+    if (unfused) NODELET_WARN("keyframe %ld: evicted from the store before it could be fused (never in the map)",
+                              static_cast<long>(id));
   }
   if (!result.has_depth) {
     count("keyframes_without_sources");
-    NODELET_INFO("keyframe %ld: no source view (%s): stored as a source, no depth published",
-                 static_cast<long>(frame.id), result.selection.reason.c_str());
+    NODELET_INFO("keyframe %ld: no source view yet (%s): stored as a source; its depth map follows once later "
+                 "keyframes qualify as its sources",
+                 static_cast<long>(result.id), result.selection.reason.c_str());
   } else {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++counts_["depth_maps"];
+    if (!result.refined) ++counts_["depth_maps"];
     last_estimate_ms_ = result.depth.milliseconds;
     last_gpu_memory_bytes_ = result.depth.gpu_memory_bytes;
   }
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    counts_["keyframes_fused"] += result.fused.size();  // reported from the first keyframe on, 0 included
+    counts_.emplace("keyframes_fused", 0);  // reported from the first keyframe on, 0 included
     for (const amhmvs::FusedKeyframe& fused : result.fused) {
+      ++counts_[fused.again ? "keyframes_fused_again" : "keyframes_fused"];
       counts_["map_points_added"] += fused.map_update.added_points;
       counts_["map_points_skipped_invalid"] += fused.map_update.skipped_invalid;
       counts_["map_points_over_budget"] += fused.map_update.dropped_over_budget;
+      counts_["map_points_outside_region"] += fused.map_update.outside_region;
     }
   }
-  NODELET_DEBUG("keyframe %ld: %zu sources, depth %.2f..%.2f m (%s), %.0f ms, %s; %zu keyframes fused, %zu wait",
-                static_cast<long>(frame.id), result.selection.source_ids.size(), result.depth_range.min,
-                result.depth_range.max, amhmvs::depthRangeSourceName(result.depth_range.source),
-                result.depth.milliseconds, result.fused_now ? "fused" : "waits for fusion", result.fused.size(),
-                result.waiting_for_fusion);
-  publishKeyframe(frame, result);
+  NODELET_DEBUG("keyframe %ld%s: %zu sources, depth %.2f..%.2f m (%s), %.0f ms, %s; %zu keyframes fused, %zu wait",
+                static_cast<long>(result.id), result.late ? " (late)" : "", result.selection.source_ids.size(),
+                result.depth_range.min, result.depth_range.max,
+                amhmvs::depthRangeSourceName(result.depth_range.source), result.depth.milliseconds,
+                result.fused_now ? "fused" : "waits for fusion", result.fused.size(), result.waiting_for_fusion);
+  publishKeyframe(result, header);
 }
 
-void MappingNodelet::publishKeyframe(const Frame& frame, const amhmvs::KeyframeResult& result) {
+void MappingNodelet::publishKeyframe(const amhmvs::KeyframeResult& result, const std_msgs::Header& header) {
   if (markers_pub_.getNumSubscribers() > 0) {
     std::vector<MarkerCamera> cameras;
     {
@@ -506,15 +585,12 @@ void MappingNodelet::publishKeyframe(const Frame& frame, const amhmvs::KeyframeR
       for (int64_t id : mapper_->store().ids()) cameras.push_back({id, mapper_->store().keyframe(id).camera});
     }
     std_msgs::Header fixed;
-    fixed.stamp = frame.stamp;
+    fixed.stamp = header.stamp;
     fixed.frame_id = config_.fixed_frame;
     const double frustum_depth = kFrustumDepthFraction * result.selection.scene_depth.depth;
     markers_pub_.publish(keyframeMarkers(cameras, result.id, result.selection.source_ids, frustum_depth, fixed));
   }
   if (!result.has_depth) return;
-  std_msgs::Header header;
-  header.stamp = frame.stamp;
-  header.frame_id = frame.optical_frame;
   // Expensive outputs only for subscribers.
   if (depth_pub_.getNumSubscribers() > 0)
     depth_pub_.publish(depthImageMsg(result.depth.depth, header), cameraInfoMsg(result.camera, header));
@@ -523,36 +599,38 @@ void MappingNodelet::publishKeyframe(const Frame& frame, const amhmvs::KeyframeR
     sensor_msgs::ImagePtr preview = depthPreviewMsg(result.depth.depth, header);
     if (preview) preview_pub_.publish(preview);
   }
-  // keyframe_cloud: when a keyframe is fused (this one, or earlier ones that
-  // waited for enough consistency views), with that keyframe's header.
-  if (!result.fused_now) waiting_headers_[result.id] = header;
+  // keyframe_cloud: when a keyframe is fused (this one, earlier ones that
+  // waited for enough consistency views, or a refined one again), with that
+  // keyframe's header.
   for (const amhmvs::FusedKeyframe& fused : result.fused) {
-    const auto waiting = waiting_headers_.find(fused.id);
-    const std_msgs::Header fused_header = waiting != waiting_headers_.end() ? waiting->second : header;
-    if (waiting != waiting_headers_.end()) waiting_headers_.erase(waiting);
+    const auto stored = keyframe_headers_.find(fused.id);
+    const std_msgs::Header& fused_header = stored != keyframe_headers_.end() ? stored->second : header;
     if (cloud_pub_.getNumSubscribers() > 0) cloud_pub_.publish(cloudMsg(keyframeCloud(fused.points), fused_header));
   }
 }
 
 void MappingNodelet::publishMap(bool republish) {
+  {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    std::lock_guard<std::mutex> stats(stats_mutex_);
+    map_voxels_ = mapper_->map().voxelCount();  // re-posing and reset change it too
+  }
+  // Nobody listens: no export. A new subscriber's connection asks for one.
+  if (map_pub_.getNumSubscribers() == 0) return;
   sensor_msgs::PointCloud2Ptr msg;
   {
     std::lock_guard<std::mutex> lock(mapper_mutex_);
     const bool changed = mapper_->mapRevision() != published_map_revision_;
     if (!changed && !republish) return;
-    // Latched: publish changes even without subscribers only when cheap
-    // (rviz may subscribe later); the rate republishes for late joiners.
-    if (map_pub_.getNumSubscribers() == 0 && !republish) return;
     std_msgs::Header header;
     header.stamp = ros::Time::now();
     header.frame_id = config_.fixed_frame;
     msg = cloudMsg(mapper_->map().exportCloud(), header);
     published_map_revision_ = mapper_->mapRevision();
-    std::lock_guard<std::mutex> stats(stats_mutex_);
-    map_voxels_ = mapper_->map().voxelCount();
   }
   last_map_publish_ = ros::WallTime::now();
   map_pub_.publish(msg);
+  count("map_publications");
 }
 
 void MappingNodelet::applyPoseUpdates(std::map<int64_t, Eigen::Isometry3d> updates) {
@@ -678,6 +756,7 @@ void MappingNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("backend", backend_name_);
   status.add("input mode", config_.input_mode);
   status.add("paused", static_cast<bool>(paused_));
+  status.add("idle", static_cast<bool>(worker_idle_));
   status.add("queued", queued);
   status.add("last estimate ms", last_estimate_ms_);
   status.add("gpu memory MiB", last_gpu_memory_bytes_ / double(1 << 20));

@@ -4,6 +4,11 @@
 //  - CPU and GPU agree on real scenes (fraction of pixels within 0.1 % depth);
 //  - accuracy on the real data with the paper's defaults, against the public
 //    implementation's numbers (floors), on both backends;
+//  - the online mapping core that the nodelet runs (OnlineMapper with the
+//    nodelet's CUDA-first FallbackEstimator: late depth maps, refinement,
+//    deferred fusion) on the fountain views in order, fed like a SLAM
+//    adapter's keyframes (image, pose, the sparse points each view observes),
+//    at the estimator's settings: its depth maps against the same floors;
 //  - a small scene for compute-sanitizer (--sanitize).
 //
 // usage: amhmvs_gpu_tests DATA_DIR [--sanitize] [--skip-cpu-fountain]
@@ -12,11 +17,15 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "amhmvs_mapping/eval/depth_metrics.h"
+#include "amhmvs_mapping/io/image_io.h"
+#include "amhmvs_mapping/mapping/fallback_estimator.h"
+#include "amhmvs_mapping/mapping/online_mapper.h"
 #include "amhmvs_mapping/mvs/cpu_sampler.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 #include "depth_job.h"
@@ -164,6 +173,83 @@ void fountain(const std::string& data, Backend backend) {
               kFountainFloors);
 }
 
+// The fountain views as keyframes in order through OnlineMapper on the GPU,
+// the nodelet's worker loop: each keyframe, then one late depth map, then
+// refinements while there are any (the GPU keeps up, so the queue is empty).
+// `check`: against the estimator's floors (else reported only).
+void onlineMapperFountain(const std::string& data, const std::string& label, const OnlineMapperOptions& options,
+                          bool check) {
+  const std::string folder = data + "/mvsnet/fountain_x0.25";
+  const Scene scene = readInputFolder(folder, 10);
+  const std::vector<SparsePoint> points = readSparsePoints(folder + "/sparse_points.txt");
+  const DepthEstimator gpu(PatchMatchOptions(), Backend::kCuda);  // paper defaults: 6 iterations
+  const DepthEstimator cpu(PatchMatchOptions(), Backend::kCpu);
+  FallbackEstimator estimate([&](const DepthProblem& p) { return gpu.estimate(p); },
+                             [&](const DepthProblem& p) { return cpu.estimate(p); }, 3,
+                             [](const std::string& line) { std::printf("INFO  fallback: %s\n", line.c_str()); });
+  int estimates = 0;
+  double ms = 0;
+  OnlineMapper mapper(options, [&](const DepthProblem& p) {
+    DepthMap map = estimate(p);
+    ++estimates;
+    ms += map.milliseconds;
+    return map;
+  });
+  std::map<int64_t, DepthMap> latest;
+  std::map<int64_t, PinholeCamera> cameras;
+  const auto keep = [&](const KeyframeResult& result) {
+    if (!result.has_depth) return;
+    latest[result.id] = result.depth;
+    cameras[result.id] = result.camera;
+    std::printf("  keyframe %2ld%-8s %zu sources, depth %.1f..%.1f m (%s): %s %%\n", static_cast<long>(result.id),
+                result.late ? " late" : result.refined ? " refined" : "", result.selection.source_ids.size(),
+                result.depth_range.min, result.depth_range.max, depthRangeSourceName(result.depth_range.source),
+                sparsePointAccuracy(result.depth.depth, result.camera, static_cast<int>(result.id), points)
+                    .percentages().c_str());
+  };
+  for (const SceneView& view : scene.views) {
+    Keyframe keyframe;
+    keyframe.id = view.id;
+    keyframe.stamp = view.id;
+    keyframe.image = readImage(view.image_path);
+    keyframe.camera = view.camera;
+    for (const SparsePoint& point : points)
+      for (int observer : point.views)
+        if (observer == view.id) keyframe.sparse_points.push_back(point.position);
+    keep(mapper.process(std::move(keyframe)));
+    KeyframeResult result;
+    if (mapper.estimateLate(&result)) keep(result);
+    while (mapper.refine(&result)) keep(result);
+  }
+  AccuracyCounts pooled;
+  for (const auto& entry : latest)
+    pooled.merge(sparsePointAccuracy(entry.second.depth, cameras.at(entry.first), static_cast<int>(entry.first), points));
+  std::printf("  online mapper, %s: %d estimates (%zu keyframes, %zu refined) in %.0f ms of estimation, map %zu points, "
+              "%zu keyframes fused\n", label.c_str(), estimates, latest.size(), static_cast<size_t>(estimates) - latest.size(), ms,
+              mapper.map().voxelCount(), mapper.map().keyframeCount());
+  expect(latest.size() == scene.views.size() && !estimate.switched() && estimate.fallbacks() == 0,
+         "online mapper on the GPU, " + label + ": a depth map for every fountain keyframe, no CPU fallback");
+  const std::string what = "online mapper (nodelet core, CUDA), " + label + ": fountain_x0.25 sparse agreement";
+  if (check)
+    checkFloors(what, pooled, kFountainFloors);
+  else
+    std::printf("INFO  %s: %s %%\n", what.c_str(), pooled.percentages().c_str());
+}
+
+void onlineMapperFountain(const std::string& data) {
+  OnlineMapperOptions defaults;  // the nodelet's defaults, up to 10 sources
+  defaults.sources.max_sources = 10;
+  defaults.map.leaf_size = 0.02;
+  onlineMapperFountain(data, "default source criteria", defaults, false);
+  // The estimator's floor lets every other view of the 110 deg arc be a
+  // source (pair.txt); source selection's default angle limits (30 deg
+  // triangulation, 45 deg optical axes) keep only 2 for the last keyframe.
+  OnlineMapperOptions wide = defaults;
+  wide.sources.max_triangulation_angle_deg = 60;
+  wide.sources.max_axis_angle_deg = 60;
+  onlineMapperFountain(data, "sources within 60 deg", wide, true);
+}
+
 void determinism(const std::string& data) {
   const DepthProblem problem = loadProblem(data + "/mvsnet/fountain_x0.25", 3, 10, 384);
   for (Backend backend : {Backend::kCuda, Backend::kCpu}) {
@@ -220,6 +306,7 @@ int main(int argc, char** argv) {
     middlebury(data, Backend::kCuda, true);
     middlebury(data, Backend::kCpu, false);
     fountain(data, Backend::kCuda);
+    onlineMapperFountain(data);
     if (cpu_fountain) fountain(data, Backend::kCpu);
   } catch (const std::exception& e) {
     std::printf("FAIL  exception: %s\n", e.what());

@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """rostest checker: keyframe-message mode driven by a small publisher (the
-fountain frames as amhmvs_mapping/Keyframe with their sparse points), then the
+fountain frames as amhmvs_mapping/Keyframe with their sparse points; the first,
+without a source view on arrival, gets its depth map late), the map export
+(none before a subscriber comes, a current map when one does), then the
 services and loop closure: ~save_map to PLY and PCD (and a refused
 extension), a KeyframePoses update that moves every keyframe 1 m along x
 (the map must follow), a runtime voxel-size change (dynamic_reconfigure),
@@ -38,9 +40,10 @@ class KeyframeServices(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('check_keyframe_services')
         ns = rospy.get_param('~namespace', '/amhmvs')
+        cls.ns = ns
         cls.watch = NodeWatch(rospy.get_param('~node', '/amhmvs/mapping'))
         cls.depth = cls.watch.record(ns + '/depth/image', Image)
-        cls.maps = cls.watch.record(ns + '/map', PointCloud2)
+        cls.maps = []  # subscribed later
         cls.pub = rospy.Publisher('/keyframe', Keyframe, queue_size=20)
         cls.poses_pub = rospy.Publisher(ns + '/keyframe_poses', KeyframePoses, queue_size=5)
         frames = {}
@@ -73,13 +76,29 @@ class KeyframeServices(unittest.TestCase):
         watch = self.watch
         for i in range(KEYFRAMES):
             self.pub.publish(self.keyframe(i, i))
-        self.assertTrue(watch.wait_for(lambda: watch.count('depth_maps') == KEYFRAMES - 1, 120), watch.diagnostics)
-        self.assertEqual(len(self.depth), KEYFRAMES - 1)
-        # Map floor: measured 312 points with deferred fusion (every point
-        # confirmed by 2 other depth maps; 128 px, 2 iterations); 1226 before,
-        # when keyframe 2 was fused against keyframe 1 alone.
-        self.assertTrue(watch.wait_for(lambda: self.maps and self.maps[-1].width > 310, 10),
-                        (self.maps[-1].width if self.maps else None, watch.diagnostics))
+        # A depth map for every keyframe: keyframe 0 (no source on arrival) late.
+        self.assertTrue(watch.wait_for(lambda: watch.count('depth_maps') == KEYFRAMES, 120), watch.diagnostics)
+        self.assertEqual(watch.count('keyframes_without_sources'), 1)
+        self.assertEqual(watch.count('late_depth_maps'), 1)
+        self.assertEqual(watch.count('keyframes_waiting_for_sources'), 0)
+        # Each with its keyframe's stamp; refined depth maps come again.
+        self.assertTrue(watch.wait_for(lambda: watch.diagnostics.get('idle') == 'True', 60), watch.diagnostics)
+        self.assertEqual(len(self.depth), KEYFRAMES + watch.count('refined_depth_maps'))
+        self.assertEqual(sorted(set(m.header.stamp.to_sec() for m in self.depth)),
+                         [1000.0 + i for i in range(KEYFRAMES)])
+
+        # Nobody subscribes to ~map yet: the map exists but is never exported.
+        self.assertTrue(watch.wait_for(lambda: watch.count('map voxels') > 0 and watch.count('queued') == 0, 30),
+                        watch.diagnostics)
+        self.assertEqual(watch.count('map_publications'), 0, watch.diagnostics)
+        voxels = watch.count('map voxels')
+        # A subscriber comes: a current map at once (no waiting for the rate).
+        self.__class__.maps = watch.record(self.ns + '/map', PointCloud2)
+        self.assertTrue(watch.wait_for(lambda: self.maps and self.maps[-1].width == voxels, 5),
+                        ([m.width for m in self.maps], voxels, watch.diagnostics))
+        # Map floor: measured MEASURE_ME points with deferred fusion (every point
+        # confirmed by 2 other depth maps; 128 px, 2 iterations).
+        self.assertGreater(voxels, 310)
         before, count_before = centroid(self.latest_map())
 
         # Save: PLY and PCD by extension, the point count in the header.

@@ -4,10 +4,10 @@
 Records the input image stamps and poses and every output (depth/image,
 depth/camera_info, confidence/image, depth/preview, keyframe_cloud, map,
 /diagnostics), waits until all frames were played and every keyframe with
-source views has its depth (or the timeout), then checks them. The first
-keyframe has no source view: it is stored as one and gets no depth, so
-expected_frames - 1 depth maps come out (every frame of the fountain bag is a
-keyframe: ~1.5 m between frames). With ~sparse_points set, the depth images
+source views has its depth and the nodelet is idle (or the timeout), then
+checks them. Every frame of the fountain bag is a keyframe (~1.5 m between
+frames), and every keyframe gets a depth image: the first has no source view
+when it arrives and gets its depth map late, once the second is there. With ~sparse_points set, the depth images
 and the global map are checked against those points (sparse_agreement.py).
 """
 import math
@@ -82,7 +82,7 @@ class ReplayOutputs(unittest.TestCase):
         rec = Recorder(cls.ns, rospy.get_param('~image_topic', '/camera/image_raw'),
                        rospy.get_param('~pose_topic', '/camera/pose'))
         start = time.time()  # wall clock: simulated time stops with the bag
-        expected_depth = cls.expected_frames - 1
+        expected_depth = cls.expected_frames
         while time.time() - start < timeout:
             with rec.lock:
                 # keyframe_cloud comes when a keyframe is fused, i.e. once
@@ -91,6 +91,7 @@ class ReplayOutputs(unittest.TestCase):
                 done = (len(rec.images) >= cls.expected_frames and len(rec.depth) >= expected_depth
                         and len(rec.info) >= expected_depth
                         and rec.diagnostics.get('depth_maps') == str(expected_depth)
+                        and rec.diagnostics.get('idle') == 'True'
                         and len(rec.clouds) >= int(rec.diagnostics.get('keyframes_fused', '0')))
             if done:
                 break
@@ -112,11 +113,22 @@ class ReplayOutputs(unittest.TestCase):
     def test_01_all_frames_played(self):
         self.assertEqual(len(self.rec.images), self.expected_frames)
 
-    def test_02_depth_for_every_keyframe_with_sources(self):
+    def latest_depth(self):
+        """stamp -> the last depth image of that keyframe (a refined depth map
+        comes again with the keyframe's stamp)."""
+        return {m.header.stamp: m for m in self.rec.depth}
+
+    def test_02_depth_for_every_keyframe(self):
         image_stamps = sorted(m.header.stamp for m in self.rec.images)
         depth_stamps = [m.header.stamp for m in self.rec.depth]
-        # Every frame is a keyframe; the first has no source view: no depth.
-        self.assertEqual(depth_stamps, image_stamps[1:])
+        # Every frame is a keyframe, each depth image has its stamp; the
+        # first keyframe's comes late (after the second's). Refined depth
+        # maps come again, once per keyframe at most (max_refinements 1).
+        self.assertEqual(sorted(set(depth_stamps)), image_stamps)
+        self.assertEqual(depth_stamps[:2], [image_stamps[1], image_stamps[0]])
+        self.assertTrue(all(depth_stamps.count(s) <= 2 for s in image_stamps))
+        self.assertEqual(len(depth_stamps) - len(image_stamps),
+                         int(self.rec.diagnostics.get('refined_depth_maps', '0')))
 
     def test_03_depth_format(self):
         self.assertTrue(self.rec.depth)
@@ -163,13 +175,15 @@ class ReplayOutputs(unittest.TestCase):
     def test_07_keyframe_clouds(self):
         # One cloud per fused keyframe (published when it is fused), with that
         # keyframe's depth stamp; the others wait for fusion.
+        # A refined keyframe is fused (and its cloud published) again.
         diag = self.rec.diagnostics
-        depth_stamps = [m.header.stamp for m in self.rec.depth]
+        depth_stamps = set(m.header.stamp for m in self.rec.depth)
         cloud_stamps = [m.header.stamp for m in self.rec.clouds]
-        self.assertEqual(len(cloud_stamps), int(diag.get('keyframes_fused', '-1')))
-        self.assertEqual(len(cloud_stamps) + int(diag.get('keyframes_waiting_for_fusion', '-1')), len(depth_stamps))
-        self.assertEqual(len(set(cloud_stamps)), len(cloud_stamps))
-        self.assertTrue(set(cloud_stamps) <= set(depth_stamps))
+        fused, again = int(diag.get('keyframes_fused', '-1')), int(diag.get('keyframes_fused_again', '0'))
+        self.assertEqual(len(set(cloud_stamps)), fused)
+        self.assertEqual(len(cloud_stamps), fused + again)
+        self.assertEqual(fused + int(diag.get('keyframes_waiting_for_fusion', '-1')), len(depth_stamps))
+        self.assertTrue(set(cloud_stamps) <= depth_stamps)
         self.assertGreater(len(cloud_stamps), 0)
         for msg in self.rec.clouds:
             self.assertEqual(msg.header.frame_id, self.optical_frame)
@@ -187,8 +201,10 @@ class ReplayOutputs(unittest.TestCase):
         diag = self.rec.diagnostics
         self.assertTrue(diag, 'no diagnostics received')
         self.assertEqual(diag.get('keyframes_received'), str(self.expected_frames))
-        self.assertEqual(diag.get('keyframes_without_sources'), '1')  # the first keyframe
-        self.assertEqual(diag.get('depth_maps'), str(self.expected_frames - 1))
+        self.assertEqual(diag.get('keyframes_without_sources'), '1')  # the first keyframe, on arrival
+        self.assertEqual(diag.get('late_depth_maps'), '1')  # ... and its depth map after the second
+        self.assertEqual(diag.get('keyframes_waiting_for_sources'), '0')
+        self.assertEqual(diag.get('depth_maps'), str(self.expected_frames))  # first estimates; refinements apart
         self.assertEqual([k for k in diag if k.startswith('dropped')], [])
         self.assertGreater(int(diag.get('map voxels', '0')), 0)
 
@@ -198,7 +214,7 @@ class ReplayOutputs(unittest.TestCase):
         infos = {m.header.stamp: m for m in self.rec.info}
         return {stamps.index(d.header.stamp): (d, sparse_agreement.Camera(infos[d.header.stamp],
                                                                           self.rec.poses[d.header.stamp]))
-                for d in self.rec.depth}
+                for d in self.latest_depth().values()}
 
     def agreement(self, depth_at_of_view):
         """Pooled (observations, finite, [within 1 / 2 / 5 %]) over the depth

@@ -3,6 +3,7 @@
 // and loop-closure re-posing can be checked against exact numbers.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <stdexcept>
@@ -109,6 +110,154 @@ TEST(OnlineMapper, FirstKeyframeIsASourceThenDeferredFusionAndMap) {
   const KeyframeResult fifth = mapper.process(keyframeAt(4, 2.0));
   EXPECT_EQ(fusedIds(fifth), std::vector<int64_t>{4});
   EXPECT_EQ(mapper.mapRevision(), 4u);
+}
+
+TEST(OnlineMapper, KeyframeWithoutSourceGetsItsDepthMapOnceALaterKeyframeQualifies) {
+  int calls = 0;
+  OnlineMapper mapper(wallOptions(), [&](const DepthProblem& problem) {
+    ++calls;
+    return wallDepth(problem);
+  });
+  KeyframeResult late;
+  mapper.process(keyframeAt(0, 0.0));
+  EXPECT_EQ(mapper.waitingForSources(), std::vector<int64_t>{0});
+  EXPECT_FALSE(mapper.estimateLate(&late));  // still nothing to pair it with
+  EXPECT_EQ(late.id, 0);
+  EXPECT_FALSE(late.has_depth);
+
+  const KeyframeResult second = mapper.process(keyframeAt(1, 0.5));
+  ASSERT_TRUE(second.has_depth);
+  EXPECT_EQ(mapper.waitingForSources(), std::vector<int64_t>{0});  // process() never estimates late
+
+  ASSERT_TRUE(mapper.estimateLate(&late));
+  EXPECT_EQ(late.id, 0);
+  EXPECT_TRUE(late.late);
+  ASSERT_TRUE(late.has_depth);
+  EXPECT_EQ(late.selection.source_ids, std::vector<int64_t>{1});  // the LATER keyframe
+  EXPECT_NEAR(cameraToWorld(late.camera).translation().x(), 0.0, 1e-12);
+  EXPECT_FLOAT_EQ(late.depth.depth.at(3, 2), static_cast<float>(kWallZ));
+  EXPECT_EQ(mapper.store().entry(0).depth.normal.channels, 3);
+  EXPECT_TRUE(mapper.waitingForSources().empty());
+  EXPECT_EQ(mapper.waitingForFusion(), (std::vector<int64_t>{1, 0}));
+  EXPECT_TRUE(late.fused.empty());  // each has one other depth map, 2 are required
+  EXPECT_FALSE(mapper.estimateLate(&late));
+  EXPECT_EQ(calls, 2);
+
+  // Keyframe 2 completes all three at once (without the late depth map of 0,
+  // keyframe 1 would wait for keyframe 3).
+  const KeyframeResult third = mapper.process(keyframeAt(2, 1.0));
+  EXPECT_EQ(fusedIds(third), (std::vector<int64_t>{1, 0, 2}));
+  EXPECT_TRUE(mapper.map().contains(0));
+  for (const Eigen::Vector3f& p : mapper.map().exportCloud().positions) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+}
+
+TEST(OnlineMapper, KeyframeThatNeverGetsASourceIsCountedWhenEvicted) {
+  OnlineMapperOptions options = wallOptions();
+  options.store.max_keyframes = 2;
+  OnlineMapper mapper(options, wallDepth);
+  mapper.process(keyframeAt(0, 0.0));
+  mapper.process(keyframeAt(1, 20.0));  // far from 0: no source either
+  EXPECT_EQ(mapper.waitingForSources(), (std::vector<int64_t>{0, 1}));
+  KeyframeResult late;
+  EXPECT_FALSE(mapper.estimateLate(&late));
+  const KeyframeResult third = mapper.process(keyframeAt(2, 20.5));  // evicts 0
+  EXPECT_EQ(third.evicted, std::vector<int64_t>{0});
+  EXPECT_EQ(mapper.evictedWithoutDepth(), 1u);
+  EXPECT_EQ(mapper.waitingForSources(), std::vector<int64_t>{1});
+  ASSERT_TRUE(mapper.estimateLate(&late));
+  EXPECT_EQ(late.id, 1);
+  mapper.reset();
+  EXPECT_TRUE(mapper.waitingForSources().empty());
+  EXPECT_EQ(mapper.evictedWithoutDepth(), 0u);
+}
+
+TEST(OnlineMapper, FailedLateEstimateKeepsTheKeyframeAsASourceOnly) {
+  bool fail = false;
+  OnlineMapper mapper(wallOptions(), [&](const DepthProblem& problem) {
+    if (fail) throw BackendError("injected: device lost");
+    return wallDepth(problem);
+  });
+  mapper.process(keyframeAt(0, 0.0));
+  mapper.process(keyframeAt(1, 0.5));
+  fail = true;
+  KeyframeResult late;
+  EXPECT_THROW(mapper.estimateLate(&late), BackendError);
+  EXPECT_EQ(late.id, 0);  // says which keyframe failed
+  EXPECT_TRUE(mapper.store().contains(0));  // still a source of keyframe 1
+  EXPECT_TRUE(mapper.waitingForSources().empty());  // not retried
+  fail = false;
+  EXPECT_FALSE(mapper.estimateLate(&late));
+  EXPECT_EQ(mapper.waitingForFusion(), std::vector<int64_t>{1});
+}
+
+// Sorted source ids of a result.
+std::vector<int64_t> sortedSources(const KeyframeResult& result) {
+  std::vector<int64_t> ids = result.selection.source_ids;
+  std::sort(ids.begin(), ids.end());
+  return ids;
+}
+
+TEST(OnlineMapper, RefineReestimatesAKeyframeOnceWhenLaterKeyframesGiveBetterSources) {
+  std::vector<size_t> source_counts;  // per estimate call
+  OnlineMapper mapper(wallOptions(), [&](const DepthProblem& problem) {
+    source_counts.push_back(problem.source_cameras.size());
+    return wallDepth(problem);
+  });
+  KeyframeResult result;
+  mapper.process(keyframeAt(0, 0.0));
+  mapper.process(keyframeAt(1, 0.5));
+  ASSERT_TRUE(mapper.estimateLate(&result));  // keyframe 0 with {1}
+  EXPECT_FALSE(mapper.refine(&result)) << result.id;  // nothing better yet
+  mapper.process(keyframeAt(2, 1.0));           // fuses 1, 0, 2
+  ASSERT_TRUE(mapper.map().contains(0));
+
+  // Keyframe 0 (estimated with {1}) now has {1, 2}: re-estimated and fused again.
+  ASSERT_TRUE(mapper.refine(&result));
+  EXPECT_EQ(result.id, 0);
+  EXPECT_TRUE(result.refined);
+  EXPECT_FALSE(result.late);
+  ASSERT_TRUE(result.has_depth);
+  EXPECT_EQ(sortedSources(result), (std::vector<int64_t>{1, 2}));
+  ASSERT_EQ(fusedIds(result), std::vector<int64_t>{0});
+  EXPECT_TRUE(result.fused[0].again);
+  EXPECT_EQ(source_counts.back(), 2u);
+  // Then keyframe 1 ({0} -> {0, 2}); keyframe 2 was estimated with {0, 1} and
+  // has nothing new.
+  ASSERT_TRUE(mapper.refine(&result));
+  EXPECT_EQ(result.id, 1);
+  EXPECT_EQ(sortedSources(result), (std::vector<int64_t>{0, 2}));
+  EXPECT_FALSE(mapper.refine(&result));
+  EXPECT_EQ(source_counts.size(), 5u);  // 3 first estimates + 2 refinements
+
+  // Keyframe 3 gives keyframe 2 a third source; 0 and 1 are refined at most once.
+  mapper.process(keyframeAt(3, 1.5));
+  ASSERT_TRUE(mapper.refine(&result));
+  EXPECT_EQ(result.id, 2);
+  EXPECT_EQ(sortedSources(result), (std::vector<int64_t>{0, 1, 3}));
+  EXPECT_FALSE(mapper.refine(&result));
+  // Re-fusion replaced points, never added copies: the map is still the wall.
+  for (const Eigen::Vector3f& p : mapper.map().exportCloud().positions) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+  size_t points = 0;
+  for (int64_t id : mapper.map().keyframeIds()) points += mapper.store().entry(id).points.size();
+  EXPECT_EQ(mapper.map().storedPointCount(), points);
+}
+
+TEST(OnlineMapper, RefinementCanBeSwitchedOffAndItsOptionsAreChecked) {
+  OnlineMapperOptions options = wallOptions();
+  options.refinement.max_refinements = 0;
+  OnlineMapper mapper(options, wallDepth);
+  KeyframeResult result;
+  for (int i = 0; i < 4; ++i) {
+    mapper.process(keyframeAt(i, 0.5 * i));
+    mapper.estimateLate(&result);
+  }
+  EXPECT_FALSE(mapper.refine(&result));
+  options.refinement.min_score_gain = 1.0;  // would re-estimate for no gain
+  EXPECT_NE(options.validate().find("refinement: min_score_gain must be finite and > 1"), std::string::npos)
+      << options.validate();
+  options.refinement.min_score_gain = 1.5;
+  options.refinement.max_refinements = -1;
+  EXPECT_THROW(OnlineMapper(options, wallDepth), InputError);
 }
 
 // The estimator's depth with a blob: cameras with x in [blob_min_x,

@@ -92,8 +92,8 @@ KnownNames collectKnownNames(const fs::path& root) {
     if (entry.path().extension() == ".cpp")
       for (const std::string& value : captures(readText(entry.path()), compared)) known.words.insert(value);
   }
-  // Diagnostic keys the nodelet reports (counters and status entries).
-  static const std::regex diagnostic(R"((?:counts_\[|status\.add\()\s*"([^"]+)\")");
+  // Diagnostic keys the nodelet reports (counters, count() calls, status entries).
+  static const std::regex diagnostic(R"((?:counts_\[|status\.add\(|\bcount\()\s*"([^"]+)\")");
   for (const auto& entry : fs::directory_iterator(root / "src/ros")) {
     if (entry.path().extension() == ".cpp")
       for (const std::string& key : captures(readText(entry.path()), diagnostic)) known.words.insert(key);

@@ -235,6 +235,46 @@ TEST(VoxelMap, BadInputIsAClearError) {
   EXPECT_INPUT_ERROR(VoxelMap{options}, "max_voxels", "positive");
 }
 
+TEST(VoxelMap, RegionOfInterestKeepsOutsidePointsOutOfTheMapButExactForRePosing) {
+  VoxelMapOptions options;
+  options.leaf_size = 0.05;  // one grid point per voxel
+  options.region_min = Eigen::Vector3d(-1, -1, 0);
+  options.region_max = Eigen::Vector3d(0.45, 1, 3);  // x of the 10 grid columns: 0 .. 0.9
+  VoxelMap map(options);
+  const KeyframePoints points = gridPoints(10, 0.1f);
+  const VoxelMapUpdate update = map.addKeyframe(1, pose({0, 0, 0}), points);
+  EXPECT_EQ(update.added_points, 50u);  // columns x = 0 .. 0.4
+  EXPECT_EQ(update.outside_region, 50u);
+  EXPECT_EQ(map.pointsOutsideRegion(), 50u);
+  EXPECT_EQ(map.storedPointCount(), 100u);  // all kept for re-posing
+  MapCloud cloud = map.exportCloud();
+  ASSERT_EQ(cloud.size(), 50u);
+  for (const Eigen::Vector3f& p : cloud.positions) EXPECT_LE(p.x(), 0.45f);
+
+  // Moved 0.5 m to -x: every point is inside now, exactly where it belongs.
+  map.updatePose(1, pose({-0.5, 0, 0}));
+  EXPECT_EQ(map.pointsOutsideRegion(), 0u);
+  cloud = map.exportCloud();
+  ASSERT_EQ(cloud.size(), 100u);
+  for (const KeyframePoint& point : points) {
+    const Eigen::Vector3f expected = point.position - Eigen::Vector3f(0.5f, 0, 0);
+    EXPECT_LT((cloud.positions[nearest(cloud, expected)] - expected).norm(), 1e-5f);
+  }
+  map.removeKeyframe(1);
+  EXPECT_EQ(map.voxelCount(), 0u);
+  EXPECT_EQ(map.pointsOutsideRegion(), 0u);
+
+  options.region_max.x() = -1;  // empty box
+  EXPECT_FALSE(options.validate().empty());
+  options.region_max.x() = std::numeric_limits<double>::quiet_NaN();
+  try {
+    VoxelMap bad(options);
+    FAIL() << "a NaN region was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("region_min must be below region_max"), std::string::npos) << e.what();
+  }
+}
+
 TEST(VoxelMap, ReAddingAnIdReplacesItsContribution) {
   VoxelMap map;
   map.addKeyframe(1, Eigen::Isometry3d::Identity(), gridPoints(4, 0.5f));

@@ -3,8 +3,10 @@
 //
 //   1. store the keyframe (KeyframeStore, bounded);
 //   2. choose its source views among the stored keyframes (selectSources);
-//      none: it is kept as a source for later keyframes, marked done without
-//      depth (an all-NaN depth map, no normals), nothing else happens;
+//      none: it is kept as a source for later keyframes (an all-NaN depth
+//      map, no normals) and waits for sources: estimateLate() gives it a
+//      depth map (steps 2-6) once later keyframes qualify as its sources
+//      (the first keyframe of a run gets its depth map after the second);
 //   3. its depth range (estimateDepthRange: given, sparse points, the
 //      sources' depth maps, default);
 //   4. its depth map (the injected estimate function: the caller's backend
@@ -22,6 +24,14 @@
 //      are stored with it;
 //   6. those points into the global VoxelMap at the keyframe's current pose.
 //
+// Refinement (refine()): a keyframe's sources are chosen among the keyframes
+// stored when it is estimated, so early keyframes of a run, and any keyframe
+// whose best partners come later, get a weaker selection than the store
+// offers later. refine() re-estimates such a keyframe (at most
+// refinement.max_refinements times) once its selection now would score at
+// least refinement.min_score_gain times the one it was estimated with, and
+// fuses it again (its map points are replaced).
+//
 // So the second keyframe of a run, which has one depth map to be checked
 // against, waits until enough later depth maps exist; the last keyframes of a
 // run may still wait when input stops (waitingForFusion()). A waiting
@@ -35,6 +45,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -47,12 +58,23 @@
 
 namespace amhmvs {
 
+struct RefinementOptions {
+  int max_refinements = 1;       // re-estimations per keyframe; 0 = off
+  // Re-estimate when the selection's total score (sum of the sources'
+  // overlap x G(angle)) grew by this factor since the estimate (> 1).
+  double min_score_gain = 1.25;
+
+  // Empty when valid; otherwise one line per problem.
+  std::string validate() const;
+};
+
 struct OnlineMapperOptions {
   KeyframeStoreOptions store;
   SourceSelectionOptions sources;
   DepthRangeOptions depth_range;
   FusionOptions fusion = FusionOptions::reprojection();
   VoxelMapOptions map;
+  RefinementOptions refinement;
 
   // Empty when valid; otherwise one line per problem, prefixed by the group.
   std::string validate() const;
@@ -67,6 +89,7 @@ struct FusedKeyframe {
   double stamp = 0;                     // the keyframe's stamp
   PinholeCamera camera;                 // the pose it was fused with
   std::vector<int64_t> consistency_ids;  // the other depth maps it was checked against
+  bool again = false;                   // fused before (refined): its points replace the earlier ones
   KeyframePoints points;                // fused points, camera frame
   VoxelMapUpdate map_update;
 };
@@ -74,8 +97,10 @@ struct FusedKeyframe {
 // What process() did with one keyframe.
 struct KeyframeResult {
   int64_t id = 0;
+  bool late = false;             // from estimateLate(): a keyframe that arrived earlier
+  bool refined = false;          // from refine(): a new depth map of an earlier keyframe
   SourceSelection selection;
-  bool has_depth = false;        // false: no source view, stored as a source only
+  bool has_depth = false;        // false: no source view (yet), stored as a source only
   DepthRangeEstimate depth_range;  // when has_depth
   DepthMap depth;                // when has_depth
   PinholeCamera camera;          // the keyframe's camera (pose used)
@@ -99,6 +124,22 @@ class OnlineMapper {
   // the keyframe was removed from the store again.
   KeyframeResult process(Keyframe keyframe);
 
+  // Keyframes that had no source view when they arrived are re-checked,
+  // oldest first; the first that has sources now gets its depth map and
+  // fusion as in process() (result->late is true). At most one per call, so
+  // that a caller can interleave them with new keyframes. False (result
+  // untouched) when none qualifies. An exception of the estimate function
+  // propagates; that keyframe then stays a source only and is not retried.
+  bool estimateLate(KeyframeResult* result);
+
+  // Re-estimates one keyframe whose source selection improved enough since
+  // its depth map was computed (see Refinement above), oldest first; its
+  // depth map is replaced and it is fused again (result->refined is true).
+  // False (result untouched) when none qualifies. An exception of the
+  // estimate function propagates; the keyframe keeps its depth map and is
+  // not refined again.
+  bool refine(KeyframeResult* result);
+
   // Loop closure: new camera-to-world pose of a stored keyframe; moves its map
   // points. False when the id is not (or no longer) stored. Throws InputError
   // for a bad pose.
@@ -109,6 +150,10 @@ class OnlineMapper {
   // Waiting keyframes evicted from the store before they were fused (since
   // construction or reset).
   size_t evictedBeforeFusion() const { return evicted_before_fusion_; }
+  // Keyframes without a depth map that wait for source views, oldest first.
+  const std::vector<int64_t>& waitingForSources() const { return waiting_for_sources_; }
+  // Of those, the ones evicted from the store before they got a depth map.
+  size_t evictedWithoutDepth() const { return evicted_without_depth_; }
 
   // Forgets every keyframe and empties the map.
   void reset();
@@ -124,6 +169,14 @@ class OnlineMapper {
   uint64_t mapRevision() const { return map_revision_; }
 
  private:
+  // Steps 3-6 for a stored keyframe whose sources were selected.
+  void estimateAndFuse(int64_t id, KeyframeResult* result);
+  // What a keyframe's depth map was estimated with (for refine()).
+  struct EstimateRecord {
+    std::vector<int64_t> sources;
+    double score = 0;  // total selection score
+    int refinements = 0;
+  };
   // The consistency views of a keyframe with a depth map (see step 5).
   std::vector<int64_t> consistencyViews(int64_t id) const;
   // Fuses keyframe `id`'s depth map against the consistency views.
@@ -140,6 +193,9 @@ class OnlineMapper {
   uint64_t map_revision_ = 0;
   std::vector<int64_t> waiting_;  // estimated, not fused; oldest first
   size_t evicted_before_fusion_ = 0;
+  std::vector<int64_t> waiting_for_sources_;  // no source view yet; oldest first
+  std::map<int64_t, EstimateRecord> estimates_;  // keyframes with a depth map
+  size_t evicted_without_depth_ = 0;
 };
 
 }  // namespace amhmvs

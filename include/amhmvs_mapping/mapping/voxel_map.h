@@ -21,6 +21,11 @@
 // position, normal or confidence, negative confidence, or beyond the voxel
 // index range of +-2^20 leaves from the origin) are skipped and counted,
 // never stored.
+//
+// Region of interest (VoxelMapOptions::region_min/max, world frame; default
+// unbounded): points outside the box are counted and kept with their
+// keyframe but enter no voxel, so that a re-pose that moves them inside
+// (or out) is exact.
 #pragma once
 
 #include <cstddef>
@@ -29,6 +34,8 @@
 #include <string>
 #include <unordered_map>
 #include <vector>
+
+#include <limits>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -50,6 +57,10 @@ struct VoxelMapOptions {
   size_t max_voxels = 5000000;    // voxels in the map
   size_t max_points = 20000000;   // keyframe points kept for re-posing
   size_t max_keyframes = 100000;  // keyframes with a contribution
+  // Region of interest, world frame: an axis-aligned box (min < max on each
+  // axis; infinite bounds allowed). Default: everything.
+  Eigen::Vector3d region_min = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
+  Eigen::Vector3d region_max = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
 
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;
@@ -67,8 +78,9 @@ struct MapCloud {
 
 // What one addKeyframe / updatePose did.
 struct VoxelMapUpdate {
-  size_t added_points = 0;
+  size_t added_points = 0;         // points that entered a voxel
   size_t skipped_invalid = 0;      // NaN/inf values, negative confidence, out of index range
+  size_t outside_region = 0;       // kept for re-posing, in no voxel
   size_t dropped_over_budget = 0;  // points that did not fit max_voxels / max_points
   std::vector<int64_t> evicted_keyframes;  // contributions removed to make room, oldest first
 };
@@ -105,6 +117,8 @@ class VoxelMap {
   // Totals since construction.
   size_t totalSkippedInvalid() const { return total_skipped_invalid_; }
   size_t totalDroppedOverBudget() const { return total_dropped_over_budget_; }
+  // Points of the keyframes now in the map that lie outside the region.
+  size_t pointsOutsideRegion() const { return points_outside_region_; }
   size_t totalEvictedKeyframes() const { return total_evicted_keyframes_; }
 
   const VoxelMapOptions& options() const { return options_; }
@@ -149,6 +163,7 @@ class VoxelMap {
   size_t stored_points_ = 0;
   size_t total_skipped_invalid_ = 0;
   size_t total_dropped_over_budget_ = 0;
+  size_t points_outside_region_ = 0;
   size_t total_evicted_keyframes_ = 0;
 };
 

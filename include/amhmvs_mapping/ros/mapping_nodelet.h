@@ -27,6 +27,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -113,9 +114,22 @@ class MappingNodelet : public nodelet::Nodelet {
   // keyframe; throws InputError when they do not fit together.
   amhmvs::Keyframe toKeyframe(const Frame& frame) const;
   void process(const Frame& frame);
-  void publishKeyframe(const Frame& frame, const amhmvs::KeyframeResult& result);
+  // Gives one keyframe that arrived without a source view its depth map once
+  // later keyframes qualify (OnlineMapper::estimateLate); published with the
+  // keyframe's own stamp and frame. False when there was nothing to do.
+  bool estimateLate();
+  // Re-estimates one keyframe whose sources improved (OnlineMapper::refine);
+  // its depth image and cloud are published again with its stamp and frame.
+  bool refine();
+  // One step of late work under the mapper lock; counts, logs and publishes.
+  bool lateWork(const char* what, const std::function<bool(amhmvs::KeyframeResult*)>& step);
+  bool queueEmpty();
+  // Counts, logs and publishes what the mapper did with a keyframe.
+  void handleResult(const amhmvs::KeyframeResult& result, const std_msgs::Header& header);
+  void publishKeyframe(const amhmvs::KeyframeResult& result, const std_msgs::Header& header);
   void applyPoseUpdates(std::map<int64_t, Eigen::Isometry3d> updates);
-  // Publishes the global map when it changed or `republish` (the rate).
+  // Publishes the global map, only while it has subscribers, when it changed
+  // or `republish` (the rate, or a new subscriber).
   void publishMap(bool republish);
 
   bool saveMapService(amhmvs_mapping::SaveMap::Request& req, amhmvs_mapping::SaveMap::Response& res);
@@ -166,12 +180,14 @@ class MappingNodelet : public nodelet::Nodelet {
   std::deque<Frame> queue_;
   std::map<int64_t, Eigen::Isometry3d> pose_updates_;  // keyframe id -> camera-to-world
   std::unique_ptr<MappingConfig> pending_config_;      // from reconfigure(), for the worker
+  bool map_requested_ = false;                         // a subscriber connected to ~map
   bool stop_ = false;
   std::atomic<bool> paused_{false};
-  // Worker: headers (stamp, optical frame) of the keyframes that wait for
-  // fusion, for their keyframe_cloud once fused.
-  std::map<int64_t, std_msgs::Header> waiting_headers_;
+  // Worker: headers (stamp, optical frame) of the stored keyframes, for the
+  // outputs that come after their turn (late and refined depth, fusion).
+  std::map<int64_t, std_msgs::Header> keyframe_headers_;
   std::atomic<bool> reset_requested_{false};
+  std::atomic<bool> worker_idle_{false};  // the last pass found nothing to do
   std::thread worker_;
 
   // Counters (any thread), guarded by stats_mutex_.
