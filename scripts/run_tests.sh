@@ -48,7 +48,8 @@ status=$?
 set -e
 # ROS tests: the gtest of the nodelet's message conversions, then rostests,
 # each with its own roscore: the fountain bag through the nodelet loaded into
-# a manager (pose topic) and through the standalone node (tf), the temple bag
+# a manager (pose topic), through the standalone node (tf), and as Keyframe
+# messages with sparse points from a small SLAM adapter, the temple bag
 # (odometry input, the object's box as the map's region of interest: every
 # map point in the box), the ICL bag (plumbing), keyframe mode with the
 # services and a loop closure, a missing transform, and bad input.
@@ -88,6 +89,7 @@ if [ -f "$bag" ]; then
   # name, test file, launch arguments
   for run in "fountain_manager_pose replay_fountain.test standalone:=false input_mode:=pose" \
              "fountain_standalone_tf replay_fountain.test standalone:=true input_mode:=tf" \
+             "fountain_manager_keyframe replay_fountain.test standalone:=false input_mode:=keyframe" \
              "temple_map_odometry_region replay_map.test scene:=temple input_mode:=odometry region:=true" \
              "icl_plumbing replay_map.test scene:=icl" \
              "keyframe_services keyframe_services.test" \
@@ -103,7 +105,7 @@ if [ -f "$bag" ]; then
   done
 else
   echo "rostest: skipped, no bag at $bag"
-  ros_runs+=(skipped skipped skipped skipped skipped skipped skipped)
+  ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped)
 fi
 
 # The README's first command in a short configuration (4 frames at 160x120 on

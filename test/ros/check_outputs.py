@@ -24,11 +24,13 @@ from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import CameraInfo, Image, PointCloud2
 import sensor_msgs.point_cloud2 as pc2
 
+from amhmvs_mapping.msg import Keyframe
+
 import sparse_agreement
 
 
 class Recorder:
-    def __init__(self, ns, image_topic, pose_topic):
+    def __init__(self, ns, image_topic, pose_topic, keyframe_topic=''):
         self.lock = threading.Lock()
         self.images, self.depth, self.info, self.confidence, self.preview, self.clouds = [], [], [], [], [], []
         self.diagnostics = {}
@@ -41,12 +43,20 @@ class Recorder:
                                              buff_size=1 << 24) for t, cls, store in subs]
         self.subscribers.append(rospy.Subscriber('/diagnostics', DiagnosticArray, self._diagnostics))
         self.subscribers.append(rospy.Subscriber(pose_topic, PoseStamped, self._pose, queue_size=50))
+        if keyframe_topic:  # keyframe input: the images and poses come in the keyframes
+            self.subscribers.append(rospy.Subscriber(keyframe_topic, Keyframe, self._keyframe, queue_size=50,
+                                                     buff_size=1 << 24))
         self.subscribers.append(rospy.Subscriber(ns + '/map', PointCloud2, self._append, callback_args=self.maps,
                                                  queue_size=5, buff_size=1 << 26))
 
     def _pose(self, msg):
         with self.lock:
             self.poses[msg.header.stamp] = msg.pose
+
+    def _keyframe(self, msg):
+        with self.lock:
+            self.images.append(msg.image)
+            self.poses[msg.header.stamp] = msg.camera_to_world
 
     def _append(self, msg, store):
         with self.lock:
@@ -80,7 +90,7 @@ class ReplayOutputs(unittest.TestCase):
         cls.map_floors = rospy.get_param('~map_floors', [0.0, 0.0, 0.0])
         cls.min_map_coverage = rospy.get_param('~min_map_coverage', 0.0)
         rec = Recorder(cls.ns, rospy.get_param('~image_topic', '/camera/image_raw'),
-                       rospy.get_param('~pose_topic', '/camera/pose'))
+                       rospy.get_param('~pose_topic', '/camera/pose'), rospy.get_param('~keyframe_topic', ''))
         start = time.time()  # wall clock: simulated time stops with the bag
         expected_depth = cls.expected_frames
         while time.time() - start < timeout:
@@ -185,11 +195,15 @@ class ReplayOutputs(unittest.TestCase):
         self.assertEqual(fused + int(diag.get('keyframes_waiting_for_fusion', '-1')), len(depth_stamps))
         self.assertTrue(set(cloud_stamps) <= depth_stamps)
         self.assertGreater(len(cloud_stamps), 0)
+        # Each keyframe's current cloud (the last: a refined keyframe's
+        # replaces its first) has a plausible size.
+        latest = {m.header.stamp: m for m in self.rec.clouds}
+        for msg in latest.values():
+            self.assertGreater(msg.width * msg.height, self.min_cloud_points)
         for msg in self.rec.clouds:
             self.assertEqual(msg.header.frame_id, self.optical_frame)
             names = [f.name for f in msg.fields]
             self.assertEqual(names, ['x', 'y', 'z', 'rgb', 'normal_x', 'normal_y', 'normal_z'])
-            self.assertGreater(msg.width * msg.height, self.min_cloud_points)
             points = list(pc2.read_points(msg, field_names=names))
             self.assertEqual(len(points), msg.width * msg.height)
             for p in points:
