@@ -105,14 +105,7 @@ bool OnlineMapper::estimateLate(KeyframeResult* result) {
     SourceSelection selection = selectSources(store_, id, options_.sources);
     if (selection.source_ids.empty()) continue;
     waiting_for_sources_.erase(std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id));
-    *result = KeyframeResult();
-    result->id = id;
-    result->late = true;
-    result->camera = store_.keyframe(id).camera;
-    result->selection = std::move(selection);
-    // Done already (as a source only): nothing is pending, so the sources
-    // need no protection from eviction while the depth map is computed.
-    estimateAndFuse(id, result);
+    estimateStored(id, std::move(selection), /*late=*/true, result);
     return true;
   }
   return false;
@@ -127,19 +120,23 @@ bool OnlineMapper::refine(KeyframeResult* result) {
     std::sort(before.begin(), before.end());
     std::sort(now.begin(), now.end());
     if (now == before || selectionScore(selection) < options_.refinement.min_score_gain * record.score) continue;
-    const int refinements = ++record.refinements;  // counted also when the estimate throws
-    const int64_t refined_id = id;
-    *result = KeyframeResult();
-    result->id = refined_id;
-    result->refined = true;
-    result->camera = store_.keyframe(refined_id).camera;
-    result->selection = std::move(selection);
-    estimateAndFuse(refined_id, result);  // resets the record (may even evict the keyframe)
-    const auto kept = estimates_.find(refined_id);
-    if (kept != estimates_.end()) kept->second.refinements = refinements;
+    ++record.refinements;  // counted also when the estimate throws; the re-estimate keeps it
+    estimateStored(id, std::move(selection), /*late=*/false, result);
     return true;
   }
   return false;
+}
+
+void OnlineMapper::estimateStored(int64_t id, SourceSelection selection, bool late, KeyframeResult* result) {
+  *result = KeyframeResult();
+  result->id = id;  // set first: the caller names the keyframe if the estimate throws
+  result->late = late;
+  result->refined = !late;
+  result->camera = store_.keyframe(id).camera;
+  result->selection = std::move(selection);
+  // Done already (a depth map, or none as a source only): nothing is pending,
+  // so the sources need no protection from eviction during the estimate.
+  estimateAndFuse(id, result);
 }
 
 void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {

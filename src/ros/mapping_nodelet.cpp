@@ -12,6 +12,7 @@
 #include "amhmvs_mapping/mapping/fallback_estimator.h"
 #include "amhmvs_mapping/mapping/map_export.h"
 #include "amhmvs_mapping/mapping/undistortion.h"
+#include "amhmvs_mapping/mvs/problem_builder.h"
 #include "amhmvs_mapping/ros/keyframe_markers.h"
 #include "amhmvs_mapping/ros/mapping_tunables.h"
 #include "amhmvs_mapping/ros/ros_conversions.h"
@@ -420,13 +421,13 @@ void MappingNodelet::workerLoop() {
     }
     // At most one late depth map per pass, refinements only when no keyframe
     // waits: new keyframes keep their rate.
-    bool late = estimateLate();
-    if (!late && queueEmpty()) late = refine();
+    bool did_late_work = estimateLate();
+    if (!did_late_work && queueEmpty()) did_late_work = refine();
     // Idle: nothing was left to do in this pass (for monitors and tests:
     // every output of the input so far is out).
     {
       std::lock_guard<std::mutex> lock(queue_mutex_);  // enqueue() clears it under this lock
-      worker_idle_ = !have_frame && !late && queue_.empty();
+      worker_idle_ = !have_frame && !did_late_work && queue_.empty();
     }
     const bool due = (ros::WallTime::now() - last_map_publish_).toSec() >= config_.map_publish_period;
     publishMap(due || map_wanted);
@@ -446,11 +447,12 @@ amhmvs::Keyframe MappingNodelet::toKeyframe(const Frame& frame) const {
   if (!problem.empty()) throw amhmvs::InputError(problem);
   // Undistorted to the pinhole with the same K (what depth/camera_info says).
   if (!distortion.isZero()) keyframe.image = amhmvs::undistortImage(keyframe.image, keyframe.camera, distortion);
-  if (config_.max_image_size > 0 && std::max(keyframe.image.width, keyframe.image.height) > config_.max_image_size) {
-    const double scale = static_cast<double>(config_.max_image_size) /
-                         std::max(keyframe.image.width, keyframe.image.height);
-    const int width = std::max(1, static_cast<int>(std::lround(keyframe.image.width * scale)));
-    const int height = std::max(1, static_cast<int>(std::lround(keyframe.image.height * scale)));
+  // Downscaled as the offline tools do (ProblemOptions::max_image_size).
+  amhmvs::ProblemOptions size_options;
+  size_options.max_image_size = config_.max_image_size;
+  int width = 0, height = 0;
+  amhmvs::scaledSize(keyframe.image.width, keyframe.image.height, size_options, &width, &height);
+  if (width != keyframe.image.width || height != keyframe.image.height) {
     keyframe.image = amhmvs::resizeArea(keyframe.image, width, height);
     keyframe.camera = keyframe.camera.resized(width, height);
   }
@@ -538,7 +540,6 @@ void MappingNodelet::handleResult(const amhmvs::KeyframeResult& result, const st
     counts_["keyframes_evicted_before_fusion"] = mapper_->evictedBeforeFusion();
     counts_["keyframes_waiting_for_sources"] = mapper_->waitingForSources().size();
     counts_["keyframes_evicted_without_depth"] = mapper_->evictedWithoutDepth();
-    map_voxels_ = mapper_->map().voxelCount();
   }
   if (!result.late && !result.refined) keyframe_headers_[result.id] = header;
   for (int64_t id : result.evicted) {
@@ -570,7 +571,8 @@ void MappingNodelet::handleResult(const amhmvs::KeyframeResult& result, const st
     }
   }
   NODELET_DEBUG("keyframe %ld%s: %zu sources, depth %.2f..%.2f m (%s), %.0f ms, %s; %zu keyframes fused, %zu wait",
-                static_cast<long>(result.id), result.late ? " (late)" : "", result.selection.source_ids.size(),
+                static_cast<long>(result.id), result.late ? " (late)" : result.refined ? " (refined)" : "",
+                result.selection.source_ids.size(),
                 result.depth_range.min, result.depth_range.max,
                 amhmvs::depthRangeSourceName(result.depth_range.source), result.depth.milliseconds,
                 result.fused_now ? "fused" : "waits for fusion", result.fused.size(), result.waiting_for_fusion);

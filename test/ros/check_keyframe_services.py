@@ -14,7 +14,6 @@ import tempfile
 import unittest
 
 import dynamic_reconfigure.client
-import rosbag
 import rospy
 import rostest
 from sensor_msgs.msg import Image, PointCloud2
@@ -22,7 +21,7 @@ import sensor_msgs.point_cloud2 as pc2
 
 from amhmvs_mapping.msg import Keyframe, KeyframePose, KeyframePoses
 from amhmvs_mapping.srv import SaveMap
-from geometry_msgs.msg import Point
+import fountain_keyframes
 from node_watch import NodeWatch
 import sparse_agreement
 
@@ -46,27 +45,14 @@ class KeyframeServices(unittest.TestCase):
         cls.maps = []  # subscribed later
         cls.pub = rospy.Publisher('/keyframe', Keyframe, queue_size=20)
         cls.poses_pub = rospy.Publisher(ns + '/keyframe_poses', KeyframePoses, queue_size=5)
-        frames = {}
-        with rosbag.Bag(rospy.get_param('~bag')) as bag:
-            for topic, msg, _ in bag.read_messages(['/camera/image_raw', '/camera/camera_info', '/camera/pose']):
-                frames.setdefault(msg.header.stamp, {})[topic.split('/')[-1]] = msg
-        cls.frames = [frames[s] for s in sorted(frames)]
+        cls.frames = fountain_keyframes.read_frames(rospy.get_param('~bag'))
         cls.sparse = sparse_agreement.read_sparse_points(rospy.get_param('~sparse_points'))
         cls.watch.wait_for(lambda: cls.pub.get_num_connections() > 0 and cls.poses_pub.get_num_connections() > 0,
                            30)
 
     def keyframe(self, index, keyframe_id):
-        frame = self.frames[index]
-        kf = Keyframe()
-        kf.header.stamp = rospy.Time.from_sec(1000.0 + keyframe_id)
-        kf.header.frame_id = 'world'
-        kf.keyframe_id = keyframe_id
-        kf.image = frame['image_raw']
-        kf.camera_info = frame['camera_info']
-        kf.camera_to_world = copy.deepcopy(frame['pose'].pose)
-        # No depth range: it comes from these SLAM points.
-        kf.sparse_points = [Point(*p) for p, views in self.sparse if index in views]
-        return kf
+        return fountain_keyframes.keyframe_msg(self.frames[index], index, keyframe_id,
+                                               rospy.Time.from_sec(1000.0 + keyframe_id), self.sparse)
 
     def latest_map(self):
         with self.watch.lock:

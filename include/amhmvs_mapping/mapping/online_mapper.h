@@ -171,6 +171,9 @@ class OnlineMapper {
  private:
   // Steps 3-6 for a stored keyframe whose sources were selected.
   void estimateAndFuse(int64_t id, KeyframeResult* result);
+  // estimateAndFuse() for an earlier keyframe (late: its first depth map;
+  // else a refinement), into a fresh result.
+  void estimateStored(int64_t id, SourceSelection selection, bool late, KeyframeResult* result);
   // What a keyframe's depth map was estimated with (for refine()).
   struct EstimateRecord {
     std::vector<int64_t> sources;
