@@ -4,6 +4,7 @@
 
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "amhmvs_mapping/ros/keyframe_markers.h"
+#include "../unit/test_helpers.h"
 
 namespace amhmvs_mapping {
 namespace {
@@ -11,11 +12,7 @@ namespace {
 MarkerCamera cameraAt(int64_t id, double x) {
   MarkerCamera entry;
   entry.id = id;
-  entry.camera.fx = entry.camera.fy = 100;
-  entry.camera.cx = 49.5;
-  entry.camera.cy = 39.5;
-  entry.camera.width = 100;
-  entry.camera.height = 80;
+  entry.camera = amhmvs::test::centredCamera(100, 80, 100);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.translation().x() = x;
   amhmvs::setCameraToWorld(pose, &entry.camera);

@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "amhmvs_mapping/mapping/keyframe_store.h"
+#include "test_helpers.h"
 
 namespace amhmvs {
 namespace test {
@@ -26,11 +27,7 @@ inline Keyframe smallKeyframe(int64_t id, double stamp, const Eigen::Isometry3d&
   Keyframe keyframe;
   keyframe.id = id;
   keyframe.stamp = stamp;
-  keyframe.camera.fx = keyframe.camera.fy = 30;
-  keyframe.camera.cx = 15.5;
-  keyframe.camera.cy = 11.5;
-  keyframe.camera.width = kKeyframeWidth;
-  keyframe.camera.height = kKeyframeHeight;
+  keyframe.camera = centredCamera(kKeyframeWidth, kKeyframeHeight, 30);
   keyframe.setCameraToWorld(camera_to_world);
   keyframe.image = ImageU8(kKeyframeWidth, kKeyframeHeight, channels, fill);
   return keyframe;

@@ -74,12 +74,7 @@ TEST(CloudMetrics, BadInputIsRefused) {
 }
 
 PinholeCamera testCamera() {
-  PinholeCamera c;
-  c.fx = c.fy = 100;
-  c.cx = 49.5;
-  c.cy = 39.5;
-  c.width = 100;
-  c.height = 80;
+  PinholeCamera c = test::centredCamera(100, 80, 100);
   c.t = Eigen::Vector3d(0.5, 0, 0);
   return c;
 }

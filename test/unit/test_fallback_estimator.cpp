@@ -7,6 +7,7 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mapping/fallback_estimator.h"
+#include "test_helpers.h"
 
 namespace amhmvs {
 namespace {
@@ -68,9 +69,7 @@ TEST(FallbackEstimator, InputErrorsAreNotRetried) {
 // The real CPU backend as the fallback of a failing primary.
 TEST(FallbackEstimator, RealCpuBackendAsFallback) {
   DepthProblem problem;
-  problem.reference_camera.fx = problem.reference_camera.fy = 20;
-  problem.reference_camera.cx = problem.reference_camera.cy = 7.5;
-  problem.reference_camera.width = problem.reference_camera.height = 16;
+  problem.reference_camera = test::centredCamera(16, 16, 20);
   problem.reference_image = ImageU8(16, 16, 1, 0);
   for (int i = 0; i < 256; ++i) problem.reference_image.data[i] = static_cast<uint8_t>((i * 37) % 251);
   PinholeCamera source = problem.reference_camera;

@@ -139,11 +139,7 @@ class FusionThresholds : public ::testing::Test {
   static FusionView planeView(int id, double x, float depth_scale, const Eigen::Vector3f& normal) {
     FusionView v;
     v.id = id;
-    v.camera.fx = v.camera.fy = 50;
-    v.camera.cx = 31.5;
-    v.camera.cy = 23.5;
-    v.camera.width = 64;
-    v.camera.height = 48;
+    v.camera = test::centredCamera(64, 48, 50);
     v.camera.t = Eigen::Vector3d(-x, 0, 0);
     v.depth = ImageF(64, 48, 1, 4.0f * depth_scale);
     v.normal = ImageF(64, 48, 3);

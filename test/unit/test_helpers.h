@@ -14,10 +14,23 @@
 #include <random>
 #include <string>
 
+#include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
 
 namespace amhmvs {
 namespace test {
+
+// A width x height camera with focal length `focal` (px), the principal point
+// at the image centre, at the world origin looking along +z.
+inline PinholeCamera centredCamera(int width, int height, double focal) {
+  PinholeCamera camera;
+  camera.fx = camera.fy = focal;
+  camera.cx = 0.5 * (width - 1);
+  camera.cy = 0.5 * (height - 1);
+  camera.width = width;
+  camera.height = height;
+  return camera;
+}
 
 // Root of the shared real data: $AMHMVS_DATA_DIR, else <source dir>/../shared/data.
 inline std::string dataDir() {

@@ -12,6 +12,7 @@
 
 #include "../../src/mvs/backends.h"
 #include "amhmvs_mapping/mvs/cpu_sampler.h"
+#include "test_helpers.h"
 
 namespace amhmvs {
 namespace mvs {
@@ -20,12 +21,7 @@ namespace {
 constexpr int kWidth = 80, kHeight = 60;
 
 PinholeCamera referenceCamera() {
-  PinholeCamera c;
-  c.fx = c.fy = 70;
-  c.cx = 39.5;
-  c.cy = 29.5;
-  c.width = kWidth;
-  c.height = kHeight;
+  PinholeCamera c = test::centredCamera(kWidth, kHeight, 70);
   return c;
 }
 

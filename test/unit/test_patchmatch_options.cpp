@@ -14,6 +14,7 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
+#include "test_helpers.h"
 
 namespace amhmvs {
 namespace {
@@ -244,10 +245,7 @@ TEST(PatchMatchOptionTable, ChoicesAcceptTheirWordsOnly) {
 // --- DepthProblem::validate ----------------------------------------------------
 
 PinholeCamera camera(double x) {
-  PinholeCamera c;
-  c.fx = c.fy = 30;
-  c.cx = c.cy = 14.5;
-  c.width = c.height = 30;
+  PinholeCamera c = test::centredCamera(30, 30, 30);
   c.t = Eigen::Vector3d(-x, 0, 0);  // centre at (x, 0, 0)
   return c;
 }

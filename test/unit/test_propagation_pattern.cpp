@@ -14,6 +14,7 @@
 
 #include "../../src/mvs/backends.h"
 #include "amhmvs_mapping/mvs/patchmatch_pixel.h"
+#include "test_helpers.h"
 
 namespace amhmvs {
 namespace mvs {
@@ -194,10 +195,7 @@ class PropagateCandidates : public ::testing::TestWithParam<PropagationScheme> {
 
   void SetUp() override {
     DepthProblem problem;
-    PinholeCamera ref;
-    ref.fx = ref.fy = 40;
-    ref.cx = ref.cy = 24.5;
-    ref.width = ref.height = kSize;
+    PinholeCamera ref = test::centredCamera(kSize, kSize, 40);
     PinholeCamera src = ref;
     src.t = Eigen::Vector3d(-0.1, 0, 0);  // centre at x = 0.1 m
     problem.reference_camera = ref;

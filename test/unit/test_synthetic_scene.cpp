@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/error.h"
+#include "test_helpers.h"
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -279,12 +280,7 @@ TEST(SyntheticScene, SphereNormalIsRadial) {
 }
 
 TEST(SyntheticScene, DepthMatchesAnalyticPlanes) {
-  PinholeCamera cam;
-  cam.width = 64;
-  cam.height = 48;
-  cam.fx = cam.fy = 50;
-  cam.cx = 31.5;
-  cam.cy = 23.5;
+  PinholeCamera cam = test::centredCamera(64, 48, 50);
   // Fronto-parallel infinite plane z = 3 in a camera at the world origin.
   SyntheticWorld world;
   SyntheticPlane wall;

@@ -7,6 +7,7 @@
 #include <cstdio>
 
 #include "amhmvs_mapping/mapping/undistortion.h"
+#include "test_helpers.h"
 
 namespace amhmvs {
 namespace {
@@ -18,12 +19,7 @@ double texture(const Eigen::Vector2d& xy) {
 }
 
 PinholeCamera camera() {
-  PinholeCamera c;
-  c.fx = c.fy = 120;
-  c.cx = 79.5;
-  c.cy = 59.5;
-  c.width = 160;
-  c.height = 120;
+  PinholeCamera c = test::centredCamera(160, 120, 120);
   return c;
 }
 

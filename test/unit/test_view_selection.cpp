@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "../../src/mvs/backends.h"
+#include "test_helpers.h"
 
 namespace amhmvs {
 namespace mvs {
@@ -18,10 +19,7 @@ constexpr int kStride = 32;  // any row stride >= the number of views
 // The paper's parameters as the estimator builds them from the default options.
 SelectionParams paperParams() {
   DepthProblem problem;
-  PinholeCamera cam;
-  cam.fx = cam.fy = 10;
-  cam.cx = cam.cy = 4.5;
-  cam.width = cam.height = 10;
+  PinholeCamera cam = test::centredCamera(10, 10, 10);
   problem.reference_camera = cam;
   problem.reference_image = ImageU8(10, 10);
   cam.t = Eigen::Vector3d(-0.1, 0, 0);
