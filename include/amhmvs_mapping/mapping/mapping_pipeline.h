@@ -1,0 +1,222 @@
+// The online mapping pipeline (ROS-free): keyframes in, depth maps, fused
+// keyframe clouds and the global map out. The mapping nodelet, amhmvs_map
+// (recorded sequences) and the GPU tests all drive this one class.
+//
+//   MappingPipeline pipeline(options, log);
+//   pipeline.push(std::move(keyframe));       // any thread: bounded queue
+//   pipeline.pushPoseUpdate(id, pose);        // any thread: loop closure
+//   for (const PipelineOutput& out : pipeline.step()) { ...publish / write... }
+//   PipelineStats stats = pipeline.stats();   // any thread: typed counters
+//
+// It owns:
+//   - a bounded input queue of keyframes: when full, the OLDEST waiting
+//     keyframe is dropped (counted in stats, reported once per
+//     options.report_period_s through the log);
+//   - the depth estimator with its CPU fallback (FallbackEstimator: a GPU
+//     failure reruns the keyframe on the CPU; after switch_to_cpu_after
+//     failures in a row every keyframe does);
+//   - the mapping core (OnlineMapper: keyframe store, source selection, depth
+//     range, deferred fusion, voxel map) and its scheduling.
+//
+// Scheduling of one step() (the nodelet's worker calls it in a loop, the
+// offline tool until idle()):
+//   1. pending work from other threads: options, reset, pose updates;
+//   2. the oldest queued keyframe, if any (OnlineMapper::process);
+//   3. one late depth map (a keyframe that had no source when it arrived and
+//      has one now);
+//   4. only when the queue is empty and 3 did nothing: one refinement.
+// New keyframes thus keep their rate; late work fills the gaps. Every output
+// carries the keyframe's own id and stamp (late and refined results too).
+//
+// Threading: push(), pushPoseUpdate(), requestReset(), setOptions(),
+// stats() and withMap() may be called from any thread; step() from one
+// thread at a time (the worker).
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "amhmvs_mapping/mapping/fallback_estimator.h"
+#include "amhmvs_mapping/mapping/online_mapper.h"
+#include "amhmvs_mapping/mvs/depth_estimator.h"
+
+namespace amhmvs {
+
+struct PipelineOptions {
+  OnlineMapperOptions mapper;
+  PatchMatchOptions estimator;           // the paper's defaults
+  Backend backend = Backend::kAuto;      // kAuto: CUDA when a GPU is usable, else the CPU (logged)
+  size_t queue_size = 4;                 // keyframes waiting for the estimator; >= 1
+  int switch_to_cpu_after = 3;           // GPU failures in a row before every keyframe runs on the CPU
+  bool late_depth_maps = true;           // step 3 of the scheduling
+  double report_period_s = 5.0;          // seconds between log lines of one kind of drop
+
+  // Empty when valid; otherwise one line per problem, prefixed by the group.
+  std::string validate() const;
+};
+
+// Wall-clock milliseconds of the stages of one result (0 where a stage did
+// not run). The estimate is the estimator's own time (CUDA events on the GPU).
+struct StageTimes {
+  double queue_wait_ms = 0;    // from push() to the start of processing (new keyframes)
+  double selection_ms = 0;     // source views
+  double depth_range_ms = 0;
+  double problem_ms = 0;       // building the depth problem (images, cameras)
+  double estimate_ms = 0;      // the estimator, wall clock
+  double fusion_ms = 0;        // consistency checks of the keyframes fused by this result
+  double map_ms = 0;           // voxel map updates
+  double total_ms = 0;         // the whole step for this result (without queue_wait_ms)
+};
+
+// One result of step(): a new keyframe, a late depth map or a refinement.
+struct PipelineOutput {
+  KeyframeResult result;
+  StageTimes times;
+};
+
+// Counters since construction or the last reset (typed: the nodelet's
+// diagnostics and amhmvs_map's summary list them with pipelineStatFields()).
+struct PipelineStats {
+  // Input.
+  uint64_t keyframes_received = 0;     // push() calls that were accepted into the queue
+  uint64_t dropped_queue_full = 0;     // oldest queued keyframes dropped for newer ones
+  uint64_t dropped_invalid = 0;        // keyframes the mapper refused (InputError)
+  uint64_t dropped_backend_error = 0;  // keyframes whose estimate failed on every backend
+  uint64_t dropped_processing_error = 0;  // any other exception while processing
+  uint64_t late_estimate_failed = 0;
+  uint64_t refinement_estimate_failed = 0;
+  // Work done.
+  uint64_t depth_maps = 0;             // first depth maps (late ones included)
+  uint64_t late_depth_maps = 0;
+  uint64_t refined_depth_maps = 0;
+  uint64_t keyframes_without_sources = 0;  // stored as a source only when they arrived
+  uint64_t keyframes_fused = 0;
+  uint64_t keyframes_fused_again = 0;
+  uint64_t map_points_added = 0;
+  uint64_t map_points_skipped_invalid = 0;
+  uint64_t map_points_over_budget = 0;
+  uint64_t map_points_outside_region = 0;
+  uint64_t pose_updates_applied = 0;
+  uint64_t pose_updates_not_stored = 0;  // evicted, reset, or not yet processed
+  uint64_t bad_pose_updates = 0;
+  uint64_t cpu_fallbacks = 0;          // keyframes rerun on the CPU after a GPU failure
+  uint64_t reconfigurations = 0;
+  uint64_t bad_reconfigurations = 0;
+  // State now.
+  uint64_t queued = 0;
+  uint64_t stored_keyframes = 0;
+  uint64_t keyframes_evicted = 0;
+  uint64_t keyframes_waiting_for_fusion = 0;
+  uint64_t keyframes_evicted_before_fusion = 0;
+  uint64_t keyframes_waiting_for_sources = 0;
+  uint64_t keyframes_evicted_without_depth = 0;
+  uint64_t map_voxels = 0;
+  uint64_t map_revision = 0;
+  bool idle = true;                    // the last step() found nothing to do and nothing is queued
+  std::string backend = "not started"; // "cuda", "cpu", "cuda failed, now cpu"
+  double last_estimate_ms = 0;
+  double last_total_ms = 0;
+  uint64_t gpu_memory_bytes = 0;       // device memory of the last estimate (CUDA)
+
+  uint64_t droppedTotal() const {
+    return dropped_queue_full + dropped_invalid + dropped_backend_error + dropped_processing_error;
+  }
+};
+
+// The integer counters of PipelineStats by name (diagnostics keys), in
+// declaration order.
+struct PipelineStatField {
+  const char* name;
+  uint64_t PipelineStats::*value;
+};
+const std::vector<PipelineStatField>& pipelineStatFields();
+
+class MappingPipeline {
+ public:
+  enum class LogLevel { kInfo, kWarn, kError };
+  using Log = std::function<void(LogLevel, const std::string&)>;
+  // The estimate a pipeline calls (tests inject failing or counting ones).
+  using EstimatorFactory = std::function<EstimateFunction(Backend backend, const PatchMatchOptions&)>;
+
+  // Creates the estimator (kAuto picks CUDA when usable; a CUDA backend that
+  // cannot start falls back to the CPU, logged). Throws InputError when the
+  // options are invalid.
+  explicit MappingPipeline(const PipelineOptions& options, Log log = {});
+  // The same with an injected primary estimator (tests); `fallback` may be empty.
+  MappingPipeline(const PipelineOptions& options, EstimateFunction primary, EstimateFunction fallback,
+                  std::string backend_name, Log log = {});
+  ~MappingPipeline();
+  MappingPipeline(const MappingPipeline&) = delete;
+  MappingPipeline& operator=(const MappingPipeline&) = delete;
+
+  // Queues a keyframe (any thread). Returns how many older queued keyframes
+  // were dropped to make room (also counted and logged). Validation happens
+  // in step() (a bad keyframe is dropped there, counted, logged).
+  size_t push(Keyframe keyframe);
+  // Loop closure (any thread): applied at the start of the next step().
+  void pushPoseUpdate(int64_t id, const Eigen::Isometry3d& camera_to_world);
+  // Forgets every queued and stored keyframe and the map at the start of the
+  // next step(); the queue is cleared at once. Returns the keyframes discarded
+  // from the queue. Counters restart from zero.
+  size_t requestReset();
+  // New mapper and estimator options, applied at the start of the next step()
+  // (a new voxel size rebuilds the map). Invalid options are refused there
+  // (counted in bad_reconfigurations, logged), the old ones stay.
+  void setOptions(const OnlineMapperOptions& mapper, const PatchMatchOptions& estimator);
+
+  // One round of work (see Scheduling); empty when there was nothing to do.
+  std::vector<PipelineOutput> step();
+  // Runs step() until nothing is queued and no late work is left (offline use).
+  void runUntilIdle(const std::function<void(const PipelineOutput&)>& on_output);
+  // Blocks until something is queued or pending, or `timeout_s` passed, or
+  // wake() was called. True when there is work.
+  bool waitForWork(double timeout_s);
+  void wake();
+
+  PipelineStats stats() const;
+  // Read access to the mapper (map, store) under the pipeline's lock.
+  void withMapper(const std::function<void(const OnlineMapper&)>& read) const;
+  Backend backend() const;
+  const PipelineOptions& options() const { return options_; }
+
+ private:
+  struct Queued {
+    Keyframe keyframe;
+    double pushed_at = 0;  // steady clock, seconds
+  };
+  void init(EstimateFunction primary, EstimateFunction fallback, const std::string& backend_name);
+  void applyPending();
+  // Runs one mapper call with error handling; false when it threw or did nothing.
+  bool run(const char* what, int64_t id, const std::function<bool(KeyframeResult*)>& call,
+           std::vector<PipelineOutput>* outputs, double queue_wait_ms);
+  void account(const PipelineOutput& output);
+  void report(LogLevel level, const std::string& kind, const std::string& line);
+
+  PipelineOptions options_;
+  Log log_;
+  Backend backend_ = Backend::kCpu;
+  std::unique_ptr<DepthEstimator> estimator_, cpu_estimator_;
+  std::unique_ptr<FallbackEstimator> fallback_;
+  std::unique_ptr<OnlineMapper> mapper_;
+
+  mutable std::mutex mapper_mutex_;  // mapper_, stats_ mapper-derived fields
+  mutable std::mutex queue_mutex_;   // queue_ and pending work
+  std::condition_variable queue_cv_;
+  std::vector<Queued> queue_;        // oldest first
+  std::map<int64_t, Eigen::Isometry3d> pose_updates_;
+  std::unique_ptr<std::pair<OnlineMapperOptions, PatchMatchOptions>> pending_options_;
+  bool reset_requested_ = false;
+  bool woken_ = false;
+
+  mutable std::mutex stats_mutex_;
+  PipelineStats stats_;
+  std::map<std::string, double> last_report_;  // kind -> steady seconds
+};
+
+}  // namespace amhmvs
