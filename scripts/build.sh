@@ -13,6 +13,10 @@ mkdir -p "$build"
 args=(-DCMAKE_BUILD_TYPE=Release)
 [ -n "${AMHMVS_WITH_CUDA:-}" ] && args+=(-DAMHMVS_WITH_CUDA="$AMHMVS_WITH_CUDA")
 [ -n "${AMHMVS_CUDA_ARCHITECTURES:-}" ] && args+=(-DAMHMVS_CUDA_ARCHITECTURES="$AMHMVS_CUDA_ARCHITECTURES")
+# ccache, when installed, makes rebuilds in several checkouts cheap.
+if command -v ccache >/dev/null; then
+  args+=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_CUDA_COMPILER_LAUNCHER=ccache)
+fi
 cmake -S "$here" -B "$build" "${args[@]}" > "$build/configure.log" 2>&1 || { cat "$build/configure.log"; exit 1; }
 grep -E "amhmvs:" "$build/configure.log" || true
 cmake --build "$build" -j "$(nproc)" -- ${AMHMVS_MAKE_TARGETS:-all}
