@@ -17,6 +17,9 @@ KeyframePoints toKeyframePoints(const std::vector<FusedPoint>& fused);
 // The map's averaged points (world frame) as a cloud for the file writers.
 PointCloud toPointCloud(const MapCloud& map_cloud);
 
+// A keyframe's points (its camera frame) as a world-frame cloud.
+PointCloud keyframeWorldCloud(const KeyframePoints& points, const Eigen::Isometry3d& camera_to_world);
+
 // Writes the whole map: binary PLY with normals, colour and confidence, or
 // PCD, by the path's extension (.ply / .pcd). Throws InputError otherwise.
 void writeMap(const std::string& path, const VoxelMap& map);
