@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/pfm.h"
 
@@ -54,10 +55,12 @@ ImageF reprojectDepth(const DepthMapView& from, const PinholeCamera& to) {
   return renderPointDepth(backprojectDepthMaps({from}, 1), to, 0);
 }
 
+ImageF groundTruthDepthIn(const DepthMapView& truth, bool registered, const PinholeCamera& camera) {
+  return registered ? resampleNearest(truth.depth, camera.width, camera.height) : reprojectDepth(truth, camera);
+}
+
 ImageF groundTruthDepthIn(const GroundTruthDepthSource& source, const PinholeCamera& camera) {
-  const DepthMapView truth = readGroundTruthDepth(source, camera);
-  return source.registered ? resampleNearest(truth.depth, camera.width, camera.height)
-                           : reprojectDepth(truth, camera);
+  return groundTruthDepthIn(readGroundTruthDepth(source, camera), source.registered, camera);
 }
 
 }  // namespace amhmvs

@@ -26,8 +26,11 @@ ImageF resampleNearest(const ImageF& image, int width, int height);
 // winning (z-buffer); pixels nothing lands on stay NaN.
 ImageF reprojectDepth(const DepthMapView& from, const PinholeCamera& to);
 
-// The source's ground truth as z-depth in `camera` (the colour camera at the
-// processed resolution): resampled when registered, else reprojected.
+// Ground truth read with readGroundTruthDepth as z-depth in `camera` (the
+// colour camera at the processed resolution): resampled when registered,
+// else reprojected.
+ImageF groundTruthDepthIn(const DepthMapView& truth, bool registered, const PinholeCamera& camera);
+// The same, reading the source.
 ImageF groundTruthDepthIn(const GroundTruthDepthSource& source, const PinholeCamera& camera);
 
 }  // namespace amhmvs
