@@ -45,13 +45,9 @@ Keyframe makeKeyframe(const PosedFrame& frame, const MapToolOptions& options) {
     keyframe.image = resizeArea(keyframe.image, width, height);
     keyframe.camera = keyframe.camera.resized(width, height);
   }
-  if (options.depth_min > 0) {
-    keyframe.depth_min = options.depth_min;
-    keyframe.depth_max = options.depth_max;
-  } else {
-    keyframe.depth_min = frame.depth_min;
-    keyframe.depth_max = frame.depth_max;
-  }
+  const bool given = options.depth_min > 0;  // the options' range wins over the layout's
+  keyframe.depth_min = given ? options.depth_min : frame.depth_min;
+  keyframe.depth_max = given ? options.depth_max : frame.depth_max;
   return keyframe;
 }
 
@@ -156,7 +152,7 @@ int run(const std::vector<std::string>& args) {
   }
   totals.wall_s = secondsSince(start);
   const std::string summary = outputs.finish(pipeline, totals);
-  if (!options.quiet) std::cerr << "amhmvs_map: summary " << summary << "\n";
+  if (!options.quiet) std::cerr << "amhmvs_map: " << summary << "\n";
   std::cout << "amhmvs_map: wrote " << output_dir << "\n";
   return 0;
 }

@@ -164,16 +164,8 @@ DepthJobOptions parseDepthJobArguments(const std::vector<std::string>& arguments
     else if (name == "backend") options.backend = parseBackend(value);
     else if (name == "max_cost") options.max_cost = parseValue<float>(name, value);
     else if (name == "ground_truth") options.ground_truth_dir = value;
-    else {
-      bool known = false;
-      for (const OptionInfo& info : patchMatchOptionTable()) {
-        if (info.name == name) {
-          info.set(options.patchmatch, value);
-          known = true;
-        }
-      }
-      if (!known) throw InputError("unknown option --" + name + " (see --help)");
-    }
+    else if (!setPatchMatchOption(name, value, &options.patchmatch))
+      throw InputError("unknown option --" + name + " (see --help)");
   }
   const std::string problems = options.problem.validate() + options.patchmatch.validate();
   if (!problems.empty()) throw InputError("invalid options:\n" + problems);

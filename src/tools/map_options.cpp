@@ -53,16 +53,8 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     else if (name == "max_time_difference") sequence.tum_max_time_difference_s = parseValue<double>(name, value);
     else if (name == "depth_factor") sequence.tum_depth_units_per_metre = parseValue<double>(name, value);
     else if (name == "frame_period") sequence.frame_period_s = parseValue<double>(name, value);
-    else {
-      bool known = false;
-      for (const OptionInfo& info : patchMatchOptionTable()) {
-        if (info.name == name) {
-          info.set(pipeline.estimator, value);
-          known = true;
-        }
-      }
-      if (!known) throw InputError("unknown option --" + name + " (see --help)");
-    }
+    else if (!setPatchMatchOption(name, value, &pipeline.estimator))
+      throw InputError("unknown option --" + name + " (see --help)");
   }
   std::string problems = pipeline.mapper.validate() + pipeline.estimator.validate() + sequence.validate();
   auto require = [&problems](bool ok, const std::string& what) {

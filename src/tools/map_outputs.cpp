@@ -269,14 +269,16 @@ std::string MapOutputs::finish(const MappingPipeline& pipeline, const MapRunTota
   writer_.finish();
   std::fflush(csv_);
   std::fflush(jsonl_);
-  const std::string summary = summaryJson(pipeline, totals);
+  std::string line;
+  const std::string summary = summaryJson(pipeline, totals, &line);
   std::FILE* file = openLog(dir_ + "/summary.json");
   std::fprintf(file, "%s\n", summary.c_str());
   std::fclose(file);
-  return summary;
+  return line;
 }
 
-std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRunTotals& totals) {
+std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRunTotals& totals,
+                                    std::string* line) {
   // The map: written, and judged against the ground-truth surface.
   std::vector<Eigen::Vector3f> map_points;
   pipeline.withMapper([&](const OnlineMapper& mapper) {
@@ -326,6 +328,7 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   }
 
   JsonFields map;
+  std::vector<double> map_within_pct;  // per threshold, when there is ground truth
   map.add("points", std::to_string(map_points.size()));
   map.add("voxel_size", number(options_.pipeline.mapper.map.leaf_size));
   if (!truth_points_.empty()) {
@@ -338,12 +341,33 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
       for (size_t i = 0; i < kMapThresholds.size(); ++i) within[i] += distance <= kMapThresholds[i];
     }
     for (size_t i = 0; i < kMapThresholds.size(); ++i) {
-      map.add("within_" + number(100 * kMapThresholds[i]) + "cm_pct",
-              number(map_points.empty() ? NAN : 100.0 * within[i] / map_points.size()));
+      map_within_pct.push_back(map_points.empty() ? NAN : 100.0 * within[i] / map_points.size());
+      map.add("within_" + number(100 * kMapThresholds[i]) + "cm_pct", number(map_within_pct.back()));
     }
     map.add("truth_points", std::to_string(truth.size()));
   }
   summary.add("map", map.object());
+
+  char text[512];
+  std::snprintf(text, sizeof(text),
+                "%zu keyframes of %zu frames: %zu new, %zu late, %zu refined depth maps, %llu dropped; "
+                "%.1f s, %.0f ms per keyframe (median step %.0f ms, estimate %.0f ms, %s)",
+                totals.keyframes_picked, totals.frames_looked_at, depth_maps, late,
+                kinds_.count("refined") ? kinds_.at("refined") : 0, static_cast<unsigned long long>(stats.droppedTotal()),
+                totals.wall_s, depth_maps + late ? 1000 * totals.wall_s / (depth_maps + late) : 0.0,
+                median(total_ms_), median(estimate_ms_), stats.backend.c_str());
+  *line = text;
+  if (!accuracy_.empty()) {
+    std::snprintf(text, sizeof(text), "; depth within 1/2/5/10 %%: %s %%, completeness %.1f %%",
+                  pooled.accuracy.percentages().c_str(), 100 * pooled.completeness());
+    *line += text;
+  }
+  std::snprintf(text, sizeof(text), "; map %zu points", map_points.size());
+  *line += text;
+  for (size_t i = 0; i < map_within_pct.size(); ++i) {
+    std::snprintf(text, sizeof(text), ", %.1f %% within %.0f cm", map_within_pct[i], 100 * kMapThresholds[i]);
+    *line += text;
+  }
   return summary.object();
 }
 

@@ -39,14 +39,15 @@ class MapOutputs {
 
   // Queues the outputs of one result (main thread).
   void add(const PipelineOutput& output);
-  // Waits for the writer, then writes map.ply and summary.json. Returns the
-  // summary's text.
+  // Waits for the writer, then writes map.ply and summary.json. Returns a
+  // one-line summary for people.
   std::string finish(const MappingPipeline& pipeline, const MapRunTotals& totals);
 
  private:
   struct Row;
   void write(const Row& row);  // writer thread
-  std::string summaryJson(const MappingPipeline& pipeline, const MapRunTotals& totals);
+  // summary.json's text; `line`: the same in one line of prose.
+  std::string summaryJson(const MappingPipeline& pipeline, const MapRunTotals& totals, std::string* line);
 
   std::string dir_;
   MapToolOptions options_;

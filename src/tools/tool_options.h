@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mvs/patchmatch_options.h"
 
 namespace amhmvs {
 
@@ -49,6 +50,18 @@ inline bool parseSwitch(const std::string& option, const std::string& value) {
   if (value.empty() || value == "1" || value == "true" || value == "yes") return true;
   if (value == "0" || value == "false" || value == "no") return false;
   throw InputError("option --" + option + ": '" + value + "' is not a switch value (1/0, true/false)");
+}
+
+// Sets the method option `name` (patchMatchOptionTable()) from text; false
+// when there is no such option. Throws InputError for a bad value.
+inline bool setPatchMatchOption(const std::string& name, const std::string& value, PatchMatchOptions* options) {
+  for (const OptionInfo& info : patchMatchOptionTable()) {
+    if (info.name == name) {
+      info.set(*options, value);
+      return true;
+    }
+  }
+  return false;
 }
 
 }  // namespace amhmvs
