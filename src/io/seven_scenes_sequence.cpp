@@ -1,6 +1,7 @@
-// The 7-Scenes / tsdf-fusion layout: frame-NNNNNN.color.(jpg|png),
+// The 7-Scenes / tsdf-fusion layout: frame-NNNNNN.color.(jpg|png; ppm|pgm
+// where converted for builds without OpenCV),
 // frame-NNNNNN.pose.txt (4x4 camera-to-world of the depth camera, metres),
-// frame-NNNNNN.depth.png (uint16 millimetres, 0 and 65535 invalid) and
+// frame-NNNNNN.depth.png|pgm (uint16 millimetres, 0 and 65535 invalid) and
 // camera-intrinsics.txt (the depth camera's K).
 #include <algorithm>
 #include <filesystem>
@@ -46,7 +47,8 @@ PosedSequence readSevenScenesSequence(const std::string& dir, const PosedSequenc
   const Intrinsics color_intrinsics = options.color_intrinsics.set() ? options.color_intrinsics : depth_intrinsics;
 
   // frame number -> colour file name
-  static const std::regex kColor(R"(frame-(\d+)\.color\.(jpg|jpeg|png))", std::regex::icase);
+  // PPM/PGM too: builds without OpenCV read sequences converted to them.
+  static const std::regex kColor(R"(frame-(\d+)\.color\.(jpg|jpeg|png|ppm|pgm))", std::regex::icase);
   std::vector<std::pair<long long, std::string>> colors;
   for (const auto& entry : fs::directory_iterator(dir)) {
     const std::string name = entry.path().filename().string();
@@ -60,7 +62,7 @@ PosedSequence readSevenScenesSequence(const std::string& dir, const PosedSequenc
                        colors[i - 1].second + " and " + colors[i].second);
     }
   }
-  if (colors.empty()) throw InputError(dir + ": no frame-NNNNNN.color.jpg|png images");
+  if (colors.empty()) throw InputError(dir + ": no frame-NNNNNN.color.jpg|png|ppm|pgm images");
 
   PosedSequence sequence;
   sequence.layout = "7scenes";
@@ -78,7 +80,8 @@ PosedSequence readSevenScenesSequence(const std::string& dir, const PosedSequenc
     // The colour camera: same orientation, centre moved by the offset in the depth frame.
     const Eigen::Isometry3d color_to_world = depth_to_world * Eigen::Translation3d(options.color_offset);
     frame.camera = cameraOfImage(color_intrinsics, frame.image_path, color_to_world, pose_path);
-    const std::string depth_path = prefix + ".depth.png";
+    std::string depth_path = prefix + ".depth.png";
+    if (!fs::exists(depth_path)) depth_path = prefix + ".depth.pgm";  // converted, 16-bit
     if (fs::exists(depth_path)) {
       GroundTruthDepthSource& truth = frame.ground_truth;
       truth.path = depth_path;

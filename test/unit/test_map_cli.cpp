@@ -194,5 +194,28 @@ TEST(MapCli, RedkitchenSevenScenesAgainstKinectDepth) {
   EXPECT_EQ(depth.height, 120);
 }
 
+// The MVSNet fountain (no dense ground truth): the first 5 views at 192x128,
+// depth ranges from the cam files.
+TEST(MapCli, FountainDenseFolderUsesItsDepthRanges) {
+  AMHMVS_REQUIRE_DATA(sequence, "mvsnet/fountain_x0.25");
+  test::TempDir out;
+  const CommandResult r = runTool("amhmvs_map", sequence + " " + out.path() +
+                                                    " --backend cpu --max_image_size 192 --count 5 --iterations 3"
+                                                    " --num_sources 3 --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string summary = readText(out.file("summary.json"));
+  // Measured (CPU): 5 keyframes (4 new, 1 late, 4 refined), map 8840 points.
+  EXPECT_EQ(jsonNumber(summary, "", "keyframes_picked"), 5) << summary;
+  EXPECT_EQ(jsonNumber(summary, "results", "new") + jsonNumber(summary, "results", "late"), 5) << summary;
+  EXPECT_GT(jsonNumber(summary, "map", "points"), 8000) << summary;
+  EXPECT_NE(summary.find("\"depth_accuracy\": null"), std::string::npos) << summary;
+  const std::string rows = readText(out.file("keyframes.jsonl"));
+  EXPECT_NE(rows.find("\"depth_range_source\": \"given\""), std::string::npos) << rows;
+  EXPECT_EQ(rows.find("neighbour"), std::string::npos) << rows;
+  const ImageF depth = readPfm(out.file("depth/000004.pfm"));
+  EXPECT_EQ(depth.width, 192);
+  EXPECT_EQ(depth.height, 128);
+}
+
 }  // namespace
 }  // namespace amhmvs

@@ -5,8 +5,8 @@
 //   - MVSNet dense folder (cams/, images/, pair.txt; depth_gt/NNNNNNNN.pfm as
 //     written by amhmvs_synthetic is its ground truth);
 //   - COLMAP workspace (sparse/[0/] text or .bin, images/);
-//   - 7-Scenes / tsdf-fusion: frame-NNNNNN.color.(jpg|png), .pose.txt
-//     (camera-to-world of the DEPTH camera, metres), .depth.png (uint16 mm,
+//   - 7-Scenes / tsdf-fusion: frame-NNNNNN.color.(jpg|png|ppm|pgm), .pose.txt
+//     (camera-to-world of the DEPTH camera, metres), .depth.png|pgm (uint16 mm,
 //     0 and 65535 invalid) and camera-intrinsics.txt (the depth camera's K);
 //   - TUM RGB-D: rgb.txt, depth.txt, groundtruth.txt (stamp tx ty tz qx qy qz
 //     qw, camera-to-world), associated by nearest stamp; depth registered to
