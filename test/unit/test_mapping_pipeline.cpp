@@ -193,6 +193,7 @@ TEST(MappingPipeline, ResetClearsCountersAtOnceAndTheMapAtTheNextStep) {
   wall.pipeline.push(keyframeAt(3, 1.5));
   EXPECT_EQ(wall.pipeline.requestReset(), 1u);  // the queued keyframe
   PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.dropped_queue_full, 0u);  // discarded by the reset, not dropped for a newer keyframe
   EXPECT_EQ(stats.depth_maps, 0u);
   EXPECT_EQ(stats.keyframes_received, 0u);
   EXPECT_EQ(stats.queued, 0u);
