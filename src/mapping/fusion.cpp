@@ -303,6 +303,12 @@ FusionResult fuseDepthMaps(const std::vector<FusionView>& input, const FusionOpt
       if (options.max_sources > 0 && static_cast<int>(sources.size()) >= options.max_sources) break;
       sources.push_back(index_of_id.at(id));
     }
+    if (sources.size() < static_cast<size_t>(options.min_consistent_views)) {
+      // No pixel can reach min_consistent_views (e.g. a view that only
+      // supports others): it emits nothing and marks nothing.
+      result.views.push_back({view.id, view.camera, {}});
+      continue;
+    }
     const ReferenceFuser fuser(views, sources, options);
     const int width = view.camera.width, height = view.camera.height;
 

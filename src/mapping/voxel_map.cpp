@@ -182,7 +182,10 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
                              keyframes_.size() + 1 > options_.max_keyframes)) {
     evictOldest(&update);
   }
-  while (!order_.empty() && voxels_.size() + newVoxelsNeeded() > options_.max_voxels) {
+  // The set of new voxels is counted only when all points in new voxels
+  // might not fit (counting it is most of an insert's time).
+  while (!order_.empty() && voxels_.size() + placed.size() > options_.max_voxels &&
+         voxels_.size() + newVoxelsNeeded() > options_.max_voxels) {
     evictOldest(&update);
   }
 

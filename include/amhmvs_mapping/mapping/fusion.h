@@ -111,7 +111,7 @@ struct FusedViewPoints {
 
 struct FusionResult {
   std::vector<FusedViewPoints> views;  // one per input view, ascending id
-  size_t candidate_pixels = 0;  // reference pixels with a valid depth and normal
+  size_t candidate_pixels = 0;  // reference pixels with a valid depth and normal (of views with enough sources)
   size_t pointCount() const;
 };
 
