@@ -261,7 +261,7 @@ KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& view_i
   views.push_back(std::move(reference));
   // min_consistent_views as configured: never fewer than asked for.
   const FusionResult fused = fuseDepthMaps(views, options_.fusion);
-  return toKeyframePoints(fused.views.back().points);
+  return fused.views.back().points;
 }
 
 bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world) {

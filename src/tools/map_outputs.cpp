@@ -283,7 +283,7 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   std::vector<Eigen::Vector3f> map_points;
   pipeline.withMapper([&](const OnlineMapper& mapper) {
     writeMap(dir_ + "/map.ply", mapper.map());
-    map_points = mapper.map().exportCloud().positions;
+    map_points = mapper.map().exportCloud().points;
   });
   const PipelineStats stats = pipeline.stats();
 

@@ -49,7 +49,7 @@ SyntheticViews renderScene(int count, int width, int height) {
 double shareOnSurface(const SyntheticWorld& world, const FusionResult& result, double relative) {
   size_t on = 0, total = 0;
   for (const FusedViewPoints& v : result.views) {
-    for (const FusedPoint& p : v.points) {
+    for (const KeyframePoint& p : v.points) {
       const Eigen::Vector2d uv = v.camera.project(p.position.cast<double>());
       const double truth = depthAt(world, v.camera, uv.x(), uv.y());
       ++total;
@@ -126,7 +126,7 @@ TEST(Fusion, OutliersOfOneViewAreRejectedAndTheRestRemains) {
   EXPECT_GT(on_surface, clean_on_surface - 0.001);
   EXPECT_GT(noisy_completeness, clean_completeness - 0.02);
   // None of view 2's own points comes from the corrupted block.
-  for (const FusedPoint& p : noisy.views[2].points) {
+  for (const KeyframePoint& p : noisy.views[2].points) {
     const Eigen::Vector2d uv = noisy.views[2].camera.project(p.position.cast<double>());
     EXPECT_FALSE(uv.x() > 32 && uv.x() < 118 && uv.y() > 22 && uv.y() < 88) << uv.transpose();
   }
@@ -216,7 +216,7 @@ TEST_F(FusionThresholds, MinimumConsistentViewsAndConfidence) {
   options.min_consistent_views = 1;
   const FusionResult result = fuseDepthMaps(views, options);
   ASSERT_GT(result.views[0].points.size(), 1000u);
-  for (const FusedPoint& p : result.views[0].points) {
+  for (const KeyframePoint& p : result.views[0].points) {
     EXPECT_EQ(p.consistent_views, 1);
     // Seen by both sources (0.5) or only by the agreeing one near the border (1).
     EXPECT_TRUE(p.confidence == 0.5f || p.confidence == 1.0f) << p.confidence;
@@ -286,8 +286,8 @@ TEST(Fusion, CameraFramePointsDoNotDependOnTheWorldFrame) {
   ASSERT_EQ(moved.pointCount(), original.pointCount());
   for (size_t v = 0; v < moved.views.size(); ++v) {
     for (size_t i = 0; i < moved.views[v].points.size(); ++i) {
-      const FusedPoint& a = original.views[v].points[i];
-      const FusedPoint& b = moved.views[v].points[i];
+      const KeyframePoint& a = original.views[v].points[i];
+      const KeyframePoint& b = moved.views[v].points[i];
       ASSERT_LT((a.position - b.position).norm(), 1e-4f);
       // toWorld follows the pose: the moved world point is Q X + c.
       const Eigen::Vector3f expected =

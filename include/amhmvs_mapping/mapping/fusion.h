@@ -64,6 +64,7 @@
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
 #include "amhmvs_mapping/io/point_cloud_io.h"
+#include "amhmvs_mapping/mapping/keyframe_point.h"
 
 namespace amhmvs {
 
@@ -101,26 +102,16 @@ struct FusionOptions {
   std::string validate() const;
 };
 
-struct FusedPoint {
-  Eigen::Vector3f position = Eigen::Vector3f::Zero();  // reference camera frame
-  Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();   // unit, reference camera frame
-  uint8_t r = 0, g = 0, b = 0;
-  // Agreeing sources / sources in which X projected in front and inside the
-  // image onto a pixel not fused before, in (0, 1] (with min_consistent_views
-  // 0 it can be 0).
-  float confidence = 0;
-  uint16_t consistent_views = 0;  // agreeing sources (the reference not counted)
-};
 
 struct FusedViewPoints {
   int view_id = -1;
   PinholeCamera camera;  // the pose the points were fused with
-  std::vector<FusedPoint> points;
+  KeyframePoints points;
 };
 
 struct FusionResult {
   std::vector<FusedViewPoints> views;  // one per input view, ascending id
-  size_t candidate_pixels = 0;  // reference pixels with a valid depth and normal
+  size_t candidate_pixels = 0;  // reference pixels with a valid depth and normal (of views with enough sources)
   size_t pointCount() const;
 };
 
@@ -134,7 +125,7 @@ FusionResult fuseDepthMaps(const std::vector<FusionView>& views, const FusionOpt
 
 // A fused point moved to the world frame with the (possibly updated) pose of
 // its reference camera.
-FusedPoint toWorld(const FusedPoint& point, const PinholeCamera& camera);
+KeyframePoint toWorld(const KeyframePoint& point, const PinholeCamera& camera);
 
 // All points in the world frame, with each view's stored camera; colours,
 // normals and confidences filled.
