@@ -169,10 +169,11 @@ void MapOutputs::write(const Row& row) {
     writePng(dir_ + "/previews/" + name + ".png", colorizeDepth(result.depth.depth, range.first, range.second));
   }
   size_t fused_points = 0;
-  std::string fused_ids;
+  std::string fused_ids, fused_array;  // "1 2" for CSV and people, "1, 2" for JSON
   for (const FusedKeyframe& fused : result.fused) {
     fused_points += fused.points.size();
     fused_ids += (fused_ids.empty() ? "" : " ") + std::to_string(fused.id);
+    fused_array += (fused_array.empty() ? "" : ", ") + std::to_string(fused.id);
     if (options_.write_clouds) {
       writePly(dir_ + "/clouds/" + id6(fused.id) + ".ply", keyframeWorldCloud(fused.points, cameraToWorld(fused.camera)));
     }
@@ -232,7 +233,7 @@ void MapOutputs::write(const Row& row) {
   std::fprintf(csv_, ",%s,%s,%zu", csvNumber(estimator_ms).c_str(), fused_ids.c_str(), fused_points);
   json.add("times", times.object());
   json.add("estimator_ms", number(estimator_ms));
-  json.add("fused_ids", "[" + fused_ids + "]");
+  json.add("fused_ids", "[" + fused_array + "]");
   json.add("fused_points", std::to_string(fused_points));
   for (size_t i = 0; i < kAccuracyColumns.size(); ++i) {
     std::fprintf(csv_, ",%s", has_truth ? number(100.0 * comparison.accuracy.fraction(i)).c_str() : "");

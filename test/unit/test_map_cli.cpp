@@ -103,6 +103,14 @@ TEST_F(MapCliRoom, MapsTheRoomWithExactGroundTruth) {
                                              jsonNumber(summary, "results", "source_only"));
   EXPECT_EQ(lineCount(out.file("keyframes.jsonl")), results);
   EXPECT_EQ(lineCount(out.file("keyframes.csv")), results + 1);
+  // Both JSON files parse (strictly: no NaN), every row with its fields.
+  const CommandResult parsed = test::runCommand(
+      "python3 -c 'import json, sys; json.load(open(sys.argv[1])); "
+      "rows = [json.loads(l) for l in open(sys.argv[2])]; "
+      "print(len(rows), sum(len(r[\"sources\"]) for r in rows), sum(len(r[\"fused_ids\"]) for r in rows))' " +
+      out.file("summary.json") + " " + out.file("keyframes.jsonl"));
+  ASSERT_EQ(parsed.exit_code, 0) << parsed.output;
+  EXPECT_EQ(parsed.output.substr(0, parsed.output.find(' ')), std::to_string(results)) << parsed.output;
   // Measured (CPU): depth within 1/2/5/10 %: 61.6 / 83.1 / 91.0 / 92.7 %,
   // completeness 99.1 %; map 11293 points, 87.3 % within 2 cm and 99.7 %
   // within 5 cm of the true surface.
