@@ -51,11 +51,15 @@ Keyframe makeKeyframe(const PosedFrame& frame, const MapToolOptions& options) {
   return keyframe;
 }
 
-void logLine(MappingPipeline::LogLevel level, const std::string& line) {
-  const char* prefix = level == MappingPipeline::LogLevel::kError  ? "error: "
-                       : level == MappingPipeline::LogLevel::kWarn ? "warning: "
-                                                                   : "";
-  std::cerr << "amhmvs_map: " << prefix << line << "\n";
+// The pipeline's log on stderr; --quiet keeps only warnings and errors.
+MappingPipeline::Log stderrLog(bool quiet) {
+  return [quiet](MappingPipeline::LogLevel level, const std::string& line) {
+    if (quiet && level == MappingPipeline::LogLevel::kInfo) return;
+    const char* prefix = level == MappingPipeline::LogLevel::kError  ? "error: "
+                         : level == MappingPipeline::LogLevel::kWarn ? "warning: "
+                                                                     : "";
+    std::cerr << "amhmvs_map: " << prefix << line << "\n";
+  };
 }
 
 // Offline: each keyframe waits for the pipeline (push, then step until idle).
@@ -135,7 +139,7 @@ int run(const std::vector<std::string>& args) {
   totals.frames_looked_at = framesLookedAt(sequence.frames.size(), options.frames);
   totals.keyframes_picked = picked.size();
 
-  MappingPipeline pipeline(options.pipeline, logLine);
+  MappingPipeline pipeline(options.pipeline, stderrLog(options.quiet));
   if (!options.quiet) {
     std::fprintf(stderr,
                  "amhmvs_map: %s sequence, %zu frames, %zu looked at, %zu keyframes; backend %s; %s\n",

@@ -45,7 +45,11 @@ class MapOutputs {
 
  private:
   struct Row;
-  void write(const Row& row);  // writer thread
+  // Writer thread: the files, the comparison, the log rows and progress line of one result.
+  void write(const Row& row);
+  void writeFiles(const KeyframeResult& result);
+  // False when the result has no depth map or its frame no ground truth.
+  bool compareWithTruth(const KeyframeResult& result, const PosedFrame* frame, DepthComparison* comparison);
   // summary.json's text; `line`: the same in one line of prose.
   std::string summaryJson(const MappingPipeline& pipeline, const MapRunTotals& totals, std::string* line);
 
