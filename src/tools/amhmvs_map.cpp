@@ -156,7 +156,7 @@ int run(const std::vector<std::string>& args) {
   }
   totals.wall_s = secondsSince(start);
   const std::string summary = outputs.finish(pipeline, totals);
-  if (!options.quiet) std::cerr << "amhmvs_map: " << summary << "\n";
+  std::cerr << "amhmvs_map: " << summary << "\n";  // also with --quiet: one line
   std::cout << "amhmvs_map: wrote " << output_dir << "\n";
   return 0;
 }

@@ -125,7 +125,7 @@ std::string mapToolUsage() {
          "  --queue_size N       keyframes waiting (default: all offline, 4 with --realtime)\n"
          "Outputs:\n"
          "  --write_depth[=0|1] (default 1)  --write_clouds[=0|1] (default 1)\n"
-         "  --write_previews[=0|1] (default 0)  --quiet (no progress lines)\n\n"
+         "  --write_previews[=0|1] (default 0)  --quiet (only warnings and the summary line)\n\n"
          "Method options (defaults are the paper's):\n"
       << describe(PatchMatchOptions());
   return out.str();
