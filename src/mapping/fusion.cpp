@@ -56,6 +56,17 @@ std::string FusionOptions::validate() const {
   return why.str();
 }
 
+FusionView DepthMapImages::borrow(int id, const PinholeCamera& camera) const {
+  FusionView view;
+  view.id = id;
+  view.camera = camera;
+  view.depth = depth;
+  view.normal = normal;
+  view.cost = cost;
+  view.color = color;
+  return view;
+}
+
 size_t FusionResult::pointCount() const {
   size_t n = 0;
   for (const FusedViewPoints& v : views) n += v.points.size();
@@ -138,7 +149,7 @@ struct PreparedView {
     return Rt * (view->camera.backproject(x, y, depth) - t);
   }
   Eigen::Vector3d color(int x, int y) const {
-    const ImageU8& c = view->color;
+    const ImageViewU8& c = view->color;
     if (c.channels == 1) return Eigen::Vector3d::Constant(c.at(x, y));
     return {static_cast<double>(c.at(x, y, 0)), static_cast<double>(c.at(x, y, 1)),
             static_cast<double>(c.at(x, y, 2))};

@@ -24,6 +24,8 @@ bool hasDepthAndNormals(const StoredKeyframe& stored) {
   return stored.state == KeyframeState::kDone && !stored.depth.depth.empty() && stored.depth.normal.channels == 3;
 }
 
+// Borrows the stored keyframe's maps and image (no copy): the store keeps
+// them while fusion runs.
 FusionView fusionView(int local_id, const StoredKeyframe& stored) {
   FusionView view;
   view.id = local_id;

@@ -68,15 +68,25 @@
 
 namespace amhmvs {
 
-// One depth map to fuse.
+// One depth map to fuse. Its images are borrowed (no copy on the way in:
+// the keyframe store's own maps, or DepthMapImages); they must outlive the
+// fusion call.
 struct FusionView {
   int id = -1;
   PinholeCamera camera;  // at the depth map's resolution
-  ImageF depth;          // 1 channel, z-depth (metres); NaN/inf/<= 0 = none
-  ImageF normal;         // 3 channels, unit normals in the camera frame
-  ImageF cost;           // optional (empty or 1 channel): see FusionOptions::max_cost
-  ImageU8 color;         // optional (empty, 1 or 3 channels RGB), same size
+  ImageViewF depth;      // 1 channel, z-depth (metres); NaN/inf/<= 0 = none
+  ImageViewF normal;     // 3 channels, unit normals in the camera frame
+  ImageViewF cost;       // optional (empty or 1 channel): see FusionOptions::max_cost
+  ImageViewU8 color;     // optional (empty, 1 or 3 channels RGB), same size
   std::vector<int> source_ids;  // views to check against, best first
+};
+
+// The owned images of one depth map, for callers that read or make them
+// (files, tests); borrow() makes its FusionView.
+struct DepthMapImages {
+  ImageF depth, normal, cost;
+  ImageU8 color;
+  FusionView borrow(int id, const PinholeCamera& camera) const;
 };
 
 struct FusionOptions {
