@@ -386,13 +386,20 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
 
   char text[512];
   std::snprintf(text, sizeof(text),
-                "%zu keyframes of %zu frames: %zu new, %zu late, %zu refined depth maps, %llu dropped; "
-                "%.1f s, %.0f ms per keyframe (median step %.0f ms, estimate %.0f ms, %s)",
+                "%zu keyframes of %zu frames: %zu new, %zu late, %zu refined depth maps, %llu dropped; %.1f s",
                 totals.keyframes_picked, totals.frames_looked_at, depth_maps, late,
-                kinds_.count("refined") ? kinds_.at("refined") : 0, static_cast<unsigned long long>(stats.droppedTotal()),
-                totals.wall_s, depth_maps + late ? 1000 * totals.wall_s / (depth_maps + late) : 0.0,
-                median(total_ms_), median(estimate_ms_), stats.backend.c_str());
+                kinds_.count("refined") ? kinds_.at("refined") : 0,
+                static_cast<unsigned long long>(stats.droppedTotal()), totals.wall_s);
   *line = text;
+  if (depth_maps + late > 0) {
+    std::snprintf(text, sizeof(text), ", %.0f ms per keyframe (median step %.0f ms, estimate %.0f ms, %s)",
+                  1000 * totals.wall_s / (depth_maps + late), median(total_ms_), median(estimate_ms_),
+                  stats.backend.c_str());
+  } else {
+    std::snprintf(text, sizeof(text), ", no depth map (%llu keyframes wait for source views)",
+                  static_cast<unsigned long long>(stats.keyframes_waiting_for_sources));
+  }
+  *line += text;
   if (!accuracy_.empty()) {
     std::snprintf(text, sizeof(text), "; depth within 1/2/5/10 %%: %s %%, completeness %.1f %%",
                   pooled.accuracy.percentages().c_str(), 100 * pooled.completeness());
