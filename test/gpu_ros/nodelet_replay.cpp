@@ -14,6 +14,7 @@
 //                  [--timeout 300] [--sparse-points F] [--report out.txt]
 //                  [--expected-frames 11] [--depth-floors a,b,c]
 //                  [--map-floors a,b,c] [--min-map-coverage 85]
+//                  [--stage DIR: report the libraries loaded from outside DIR]
 // Exit status 0 when every check passes.
 #include <unistd.h>
 
@@ -54,7 +55,7 @@ using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 struct Args {
-  std::string bag, config, sparse_points, report;
+  std::string bag, config, sparse_points, report, stage;
   std::string backend = "cuda";
   int max_image_size = 256, iterations = 3, expected_frames = 11;
   double rate = 1.0, timeout = 300.0, min_depth = 3.0, max_depth = 50.0, min_map_coverage = 0.0;
@@ -287,6 +288,7 @@ bool parseArgs(int argc, char** argv, Args* a) {
     else if (k == "--config") a->config = v;
     else if (k == "--sparse-points") a->sparse_points = v;
     else if (k == "--report") a->report = v;
+    else if (k == "--stage") a->stage = v;
     else if (k == "--backend") a->backend = v;
     else if (k == "--max-image-size") a->max_image_size = std::atoi(v.c_str());
     else if (k == "--iterations") a->iterations = std::atoi(v.c_str());
@@ -446,6 +448,26 @@ int main(int argc, char** argv) {
   }
   std::this_thread::sleep_for(std::chrono::seconds(3));  // late messages, one more diagnostics update
 
+  // Libraries mapped now (the nodelet and its plugins still loaded).
+  std::string libraries;
+  if (!args.stage.empty()) {
+    // Which shared objects came from outside the staged runtime (the system's
+    // libc, libstdc++, CUDA driver are expected).
+    std::ifstream maps("/proc/self/maps");
+    std::set<std::string> inside, outside;
+    std::string line;
+    while (std::getline(maps, line)) {
+      const size_t slash = line.find('/');
+      if (slash == std::string::npos) continue;
+      const std::string path = line.substr(slash);
+      if (path.find(".so") == std::string::npos) continue;
+      (path.compare(0, args.stage.size(), args.stage) == 0 ? inside : outside).insert(path);
+    }
+    std::string list;
+    for (const std::string& p : outside) list += "\n    " + p;
+    libraries = (fmt("libraries: %zu from the stage %s, %zu from outside it:", inside.size(), args.stage.c_str(),
+                    outside.size()) + list);
+  }
   // Stop the nodelet before checking (no more messages).
   loader.clear();
   std::lock_guard<std::mutex> lock(rec.mutex);
@@ -679,6 +701,7 @@ int main(int argc, char** argv) {
                      args.map_floors[1], args.map_floors[2], args.min_map_coverage));
   }
 
+  if (!libraries.empty()) report.line(libraries);
   report.line(fmt("RESULT %s: %d passed, %d failed, %.1f s in all", report.failed ? "FAIL" : "PASS", report.passed,
                   report.failed, secondsSince(start)));
   if (!args.report.empty()) std::ofstream(args.report) << report.text.str();
