@@ -150,7 +150,10 @@ cat > "$tree/run.sh" <<'EOF'
 # override them (e.g. --backend cpu, --max-image-size 768 --iterations 6).
 T=$(cd "$(dirname "$0")" && pwd)
 unset AMENT_PREFIX_PATH ROS_MASTER_URI ROS_IP ROS_HOSTNAME ROS_ROOT ROS_DISTRO ROS_ETC_DIR ROSCONSOLE_CONFIG_FILE PYTHONPATH
-export LD_LIBRARY_PATH=$T/lib ROS_PACKAGE_PATH=$T/share CMAKE_PREFIX_PATH=$T
+# The target's own path stays behind ours: it may be where its GPU driver
+# (libcuda.so.1) is found.
+export LD_LIBRARY_PATH=$T/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+export ROS_PACKAGE_PATH=$T/share CMAKE_PREFIX_PATH=$T
 export ROS_HOME=${ROS_HOME:-$T/home} ROS_LOG_DIR=${ROS_LOG_DIR:-$T/home/log}
 exec "$T/bin/nodelet_replay" --stage "$T/" --bag "$T/data/strecha_fountain_x0.25.bag" \
   --config "$T/config/replay_fountain.yaml" --sparse-points "$T/data/sparse_points.txt" \
