@@ -12,6 +12,8 @@
 #
 # OUT_DIR gets rosgpu.tar.xz (about 35 MB). On the target:
 #   tar xJf rosgpu.tar.xz -C /tmp && /tmp/rosgpu/run.sh --backend cuda --report r.txt
+# or the four replays of docs/results/nodelet_gpu_h100.md:
+#   tar xJf rosgpu.tar.xz -C /tmp && /tmp/rosgpu/check.sh OUT_DIR
 # Build first (scripts/build.sh; with CUDA for the target's GPU).
 #
 # Libraries that only OpenCV's image codecs need for formats the nodelet
@@ -161,6 +163,38 @@ exec "$T/bin/nodelet_replay" --stage "$T/" --bag "$T/data/strecha_fountain_x0.25
   --depth-floors 82.5,88.5,90.0 --map-floors 88.5,96.5,98.0 --min-map-coverage 85 "$@"
 EOF
 chmod +x "$tree/run.sh"
+
+cat > "$tree/check.sh" <<'EOF'
+#!/usr/bin/env bash
+# The GPU check of the nodelet: check.sh OUT_DIR [extra run.sh arguments].
+# Four replays of the fountain bag, each with a report in OUT_DIR
+# (report_NAME.txt) and the logs of all in OUT_DIR/logs.txt:
+#   cuda256         replay_fountain.test's settings and floors, CUDA backend
+#   cuda768         full resolution, 6 iterations (the paper's), CUDA, no floors
+#   cuda256_rate20  as cuda256 with the bag played 20x faster than recorded
+#   cpu256          as cuda256 on the CPU backend, for comparison
+S=$(cd "$(dirname "$0")" && pwd)
+out=${1:?usage: check.sh OUT_DIR}; shift
+mkdir -p "$out"
+nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1 | tee "$out/device.txt"
+r() {
+  n=$1; shift; t=$SECONDS
+  echo "==== $n: run.sh $*" >> "$out/logs.txt"
+  "$S/run.sh" --report "$out/report_$n.txt" "$@" >> "$out/logs.txt" 2>&1
+  echo "== $n: rc=$? in $((SECONDS - t)) s"
+  [ -f "$out/report_$n.txt" ] || tail -30 "$out/logs.txt"
+  grep -vE "^    (stamp|/)|^diagnostics" "$out/report_$n.txt" | cut -c1-300
+  grep -oE "\{(backend|gpu memory MiB|last estimate ms|last keyframe ms|keyframes_fused|refined_depth_maps)[^}]*\}" \
+    "$out/report_$n.txt" | tr '\n' ' '
+  echo
+}
+r cuda256 --backend cuda --timeout 90 "$@"
+r cuda768 --backend cuda --max-image-size 768 --iterations 6 --depth-floors 0,0,0 --map-floors 0,0,0 \
+  --min-map-coverage 0 --timeout 120 "$@"
+r cuda256_rate20 --backend cuda --rate 20 --timeout 60 "$@"
+r cpu256 --backend cpu --timeout 150 "$@"
+EOF
+chmod +x "$tree/check.sh"
 
 echo "== archive"
 rm -f "$work"/*.s
