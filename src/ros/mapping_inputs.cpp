@@ -293,7 +293,8 @@ void MappingInputs::offer(Frame frame, const geometry_msgs::Pose& pose, bool pic
     }
   }
   if (!supportedEncoding(frame.image->encoding)) {
-    drop(&InputStats::dropped_encoding, "image encoding '" + frame.image->encoding + "' is not mono8, rgb8 or bgr8");
+    drop(&InputStats::dropped_encoding, "image encoding '" + frame.image->encoding +
+                                            "' is not mono8, mono16, rgb8, bgr8, rgba8, bgra8 or bayer_*8");
     return;
   }
   std::string problem = poseFromMsg(pose, &frame.camera_to_world);
