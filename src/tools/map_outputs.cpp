@@ -230,6 +230,11 @@ MapOutputs::MapOutputs(const std::string& dir, const MapToolOptions& options, co
 }
 
 MapOutputs::~MapOutputs() {
+  // The writer's jobs use the logs: let them end first (after an error too).
+  try {
+    writer_.finish();
+  } catch (...) {  // already reported, or the run is failing anyway
+  }
   if (csv_) std::fclose(csv_);
   if (jsonl_) std::fclose(jsonl_);
 }
