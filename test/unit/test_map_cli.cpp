@@ -145,6 +145,22 @@ TEST_F(MapCliRoom, RealtimeReplayDropsWhatTheQueueCannotHold) {
   EXPECT_TRUE(fs::exists(out.file("map.ply")));
 }
 
+// An image that cannot be decoded halfway through (its header still gives the
+// size, so the sequence reads): exit 1 naming it, after the earlier results
+// were written and the writer thread ended cleanly.
+TEST_F(MapCliRoom, AnUnreadableImageMidwayStopsWithItsName) {
+  test::TempDir copy;
+  const std::string room_copy = copy.file("room");
+  fs::copy(room(), room_copy, fs::copy_options::recursive);
+  const std::string bad = room_copy + "/images/00000003.png";
+  fs::resize_file(bad, 100);  // PNG signature and IHDR kept, image data cut
+  const CommandResult r = runTool("amhmvs_map", room_copy + " " + copy.file("out") +
+                                                     " --backend cpu --max_image_size 64 --iterations 1 --num_sources 1");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("00000003.png"), std::string::npos) << r.output;
+  EXPECT_GE(lineCount(copy.file("out/keyframes.csv")), 3u) << r.output;  // header and the first results
+}
+
 TEST(MapCli, HelpAndBadInput) {
   const CommandResult help = runTool("amhmvs_map", "--help");
   EXPECT_EQ(help.exit_code, 0);
