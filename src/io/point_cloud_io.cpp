@@ -22,6 +22,8 @@ std::string PointCloud::validate() const {
     why << colors.size() << " colours for " << n << " points";
   } else if (!confidence.empty() && confidence.size() != n) {
     why << confidence.size() << " confidences for " << n << " points";
+  } else if (!counts.empty() && counts.size() != n) {
+    why << counts.size() << " counts for " << n << " points";
   } else {
     for (size_t i = 0; i < n; ++i) {
       if (!points[i].allFinite()) {

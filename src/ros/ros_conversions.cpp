@@ -178,20 +178,24 @@ sensor_msgs::ImagePtr depthPreviewMsg(const amhmvs::ImageF& depth, const std_msg
   return msg;
 }
 
-amhmvs::MapCloud keyframeCloud(const amhmvs::KeyframePoints& points) {
-  amhmvs::MapCloud cloud;
+amhmvs::PointCloud keyframeCloud(const amhmvs::KeyframePoints& points) {
+  amhmvs::PointCloud cloud;
+  cloud.points.reserve(points.size());
+  cloud.normals.reserve(points.size());
+  cloud.colors.reserve(points.size());
+  cloud.confidence.reserve(points.size());
   for (const amhmvs::KeyframePoint& point : points) {
-    cloud.positions.push_back(point.position);
+    cloud.points.push_back(point.position);
     cloud.normals.push_back(point.normal);
-    cloud.colors.emplace_back(point.rgb[0], point.rgb[1], point.rgb[2]);
-    cloud.confidences.push_back(point.confidence);
-    cloud.counts.push_back(1);
+    cloud.colors.push_back({point.rgb[0], point.rgb[1], point.rgb[2]});
+    cloud.confidence.push_back(point.confidence);
   }
   return cloud;
 }
 
-sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::MapCloud& cloud, const std_msgs::Header& header) {
-  auto finite = [&](size_t i) { return cloud.positions[i].allFinite() && cloud.normals[i].allFinite(); };
+sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::PointCloud& cloud, const std_msgs::Header& header) {
+  const bool has_normals = cloud.normals.size() == cloud.size(), has_colors = cloud.colors.size() == cloud.size();
+  auto finite = [&](size_t i) { return cloud.points[i].allFinite() && (!has_normals || cloud.normals[i].allFinite()); };
   size_t count = 0;
   for (size_t i = 0; i < cloud.size(); ++i) count += finite(i);
 
@@ -213,17 +217,18 @@ sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::MapCloud& cloud, const std_ms
   sensor_msgs::PointCloud2Iterator<float> it_nx(*msg, "normal_x"), it_ny(*msg, "normal_y"), it_nz(*msg, "normal_z");
   for (size_t i = 0; i < cloud.size(); ++i) {
     if (!finite(i)) continue;  // never a NaN in a cloud
-    *it_x = cloud.positions[i].x();
-    *it_y = cloud.positions[i].y();
-    *it_z = cloud.positions[i].z();
-    const auto& c = cloud.colors[i];
+    *it_x = cloud.points[i].x();
+    *it_y = cloud.points[i].y();
+    *it_z = cloud.points[i].z();
+    const std::array<uint8_t, 3> c = has_colors ? cloud.colors[i] : std::array<uint8_t, 3>{0, 0, 0};
     const uint32_t packed = (uint32_t{c[0]} << 16) | (uint32_t{c[1]} << 8) | c[2];
     float packed_float;
     std::memcpy(&packed_float, &packed, sizeof(float));
     *it_rgb = packed_float;
-    *it_nx = cloud.normals[i].x();
-    *it_ny = cloud.normals[i].y();
-    *it_nz = cloud.normals[i].z();
+    const Eigen::Vector3f normal = has_normals ? cloud.normals[i] : Eigen::Vector3f::Zero();
+    *it_nx = normal.x();
+    *it_ny = normal.y();
+    *it_nz = normal.z();
     ++it_x, ++it_y, ++it_z, ++it_rgb, ++it_nx, ++it_ny, ++it_nz;
   }
   return msg;

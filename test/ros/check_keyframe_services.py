@@ -144,8 +144,13 @@ class KeyframeServices(unittest.TestCase):
         self.assertTrue(watch.wait_for(lambda: watch.count('ignored_while_paused') == 1, 10), watch.diagnostics)
         self.assertTrue(watch.call('resume').success)
         self.assertTrue(watch.call('reset').success)
+        # Diagnostics show the reset at once: work and state counters restart
+        # (drop counters are lifetime).
+        self.assertTrue(watch.wait_for(lambda: watch.count('depth_maps') == 0 and watch.count('stored_keyframes') == 0
+                                       and watch.count('keyframes_received') == 0, 5), watch.diagnostics)
         self.pub.publish(self.keyframe(KEYFRAMES, KEYFRAMES + 1))  # the reset takes effect before it
-        self.assertTrue(watch.wait_for(lambda: watch.count('keyframes_without_sources') == 2, 30), watch.diagnostics)
+        self.assertTrue(watch.wait_for(lambda: watch.count('keyframes_without_sources') == 1 and
+                                       watch.count('stored_keyframes') == 1, 30), watch.diagnostics)
         self.assertTrue(watch.wait_for(lambda: self.maps[-1].width == 0, 10))
 
 

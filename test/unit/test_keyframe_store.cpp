@@ -68,8 +68,13 @@ TEST(KeyframeStore, AddsAndLooksUpKeyframes) {
   EXPECT_EQ(store.pendingIds(), (std::vector<int64_t>{7, 3, 11}));
   EXPECT_EQ(store.keyframe(3).stamp, 8.0);
   EXPECT_EQ(store.state(11), KeyframeState::kPending);
-  EXPECT_EQ(store.entry(11).bytes, 3 * kImageBytes + 2 * sizeof(Eigen::Vector3d));
-  EXPECT_EQ(store.bytes(), 5 * kImageBytes + 2 * sizeof(Eigen::Vector3d));
+  // The RGB keyframe: its image, its grey copy (converted once, for the
+  // estimator) and its sparse points.
+  EXPECT_EQ(store.entry(11).bytes, 4 * kImageBytes + 2 * sizeof(Eigen::Vector3d));
+  EXPECT_EQ(store.bytes(), 6 * kImageBytes + 2 * sizeof(Eigen::Vector3d));
+  EXPECT_EQ(store.entry(11).grayImage().channels, 1);
+  EXPECT_EQ(store.entry(11).grayImage().data, toGray(rgb.image).data);
+  EXPECT_EQ(&store.entry(3).grayImage(), &store.entry(3).keyframe.image);  // grey already: no copy
 }
 
 TEST(KeyframeStore, RejectsBadKeyframesWithClearMessages) {
@@ -292,12 +297,12 @@ TEST(KeyframeStore, TenThousandKeyframesThroughStoreAndMapStayInBudget) {
   EXPECT_GT(map_evictions, 0u);
   EXPECT_EQ(map.totalSkippedInvalid(), 100u);
 
-  const MapCloud cloud = map.exportCloud();
+  const PointCloud cloud = map.exportCloud();
   EXPECT_EQ(cloud.size(), map.voxelCount());
   for (size_t i = 0; i < cloud.size(); ++i) {
-    ASSERT_TRUE(cloud.positions[i].allFinite());
+    ASSERT_TRUE(cloud.points[i].allFinite());
     ASSERT_TRUE(cloud.normals[i].allFinite());
-    ASSERT_TRUE(std::isfinite(cloud.confidences[i]));
+    ASSERT_TRUE(std::isfinite(cloud.confidence[i]));
   }
 }
 

@@ -15,32 +15,10 @@
 namespace amhmvs {
 namespace {
 
-constexpr double kWallZ = 5.0;  // the wall z = 5 (world), facing the cameras
-
-// Depth and normal of the wall z = kWallZ seen by cameras looking along +z.
-DepthMap wallDepth(const DepthProblem& problem) {
-  const PinholeCamera& camera = problem.reference_camera;
-  const double depth = kWallZ - cameraToWorld(camera).translation().z();
-  DepthMap map;
-  map.depth = ImageF(camera.width, camera.height, 1, static_cast<float>(depth));
-  map.normal = ImageF(camera.width, camera.height, 3, 0.0f);
-  for (int y = 0; y < camera.height; ++y)
-    for (int x = 0; x < camera.width; ++x) map.normal.at(x, y, 2) = -1.0f;
-  map.cost = ImageF(camera.width, camera.height, 1, 0.1f);
-  return map;
-}
-
-OnlineMapperOptions wallOptions() {
-  OnlineMapperOptions options;
-  options.sources.default_scene_depth = kWallZ;
-  options.sources.min_overlap = 0.3;
-  options.map.leaf_size = 0.05;
-  return options;
-}
-
-Keyframe keyframeAt(int64_t id, double x) {
-  return test::smallKeyframe(id, static_cast<double>(id), test::poseAt({x, 0, 0}), 3, 128);
-}
+using test::kWallZ;
+using test::keyframeAt;
+using test::wallDepth;
+using test::wallOptions;
 
 // Ids of the keyframes a result fused.
 std::vector<int64_t> fusedIds(const KeyframeResult& result) {
@@ -101,9 +79,9 @@ TEST(OnlineMapper, FirstKeyframeIsASourceThenDeferredFusionAndMap) {
     for (const KeyframePoint& point : fused.points)
       EXPECT_NEAR(point.position.z() + cameraToWorld(fused.camera).translation().z(), kWallZ, 1e-4);
   }
-  const MapCloud cloud = mapper.map().exportCloud();
+  const PointCloud cloud = mapper.map().exportCloud();
   ASSERT_GT(cloud.size(), 0u);
-  for (const Eigen::Vector3f& p : cloud.positions) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+  for (const Eigen::Vector3f& p : cloud.points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
   EXPECT_EQ(mapper.mapRevision(), 3u);
 
   // Each keyframe is fused exactly once: keyframe 4 fuses only itself.
@@ -148,7 +126,7 @@ TEST(OnlineMapper, KeyframeWithoutSourceGetsItsDepthMapOnceALaterKeyframeQualifi
   const KeyframeResult third = mapper.process(keyframeAt(2, 1.0));
   EXPECT_EQ(fusedIds(third), (std::vector<int64_t>{1, 0, 2}));
   EXPECT_TRUE(mapper.map().contains(0));
-  for (const Eigen::Vector3f& p : mapper.map().exportCloud().positions) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+  for (const Eigen::Vector3f& p : mapper.map().exportCloud().points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
 }
 
 TEST(OnlineMapper, KeyframeThatNeverGetsASourceIsCountedWhenEvicted) {
@@ -236,7 +214,7 @@ TEST(OnlineMapper, RefineReestimatesAKeyframeOnceWhenLaterKeyframesGiveBetterSou
   EXPECT_EQ(sortedSources(result), (std::vector<int64_t>{0, 1, 3}));
   EXPECT_FALSE(mapper.refine(&result));
   // Re-fusion replaced points, never added copies: the map is still the wall.
-  for (const Eigen::Vector3f& p : mapper.map().exportCloud().positions) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+  for (const Eigen::Vector3f& p : mapper.map().exportCloud().points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
   size_t points = 0;
   for (int64_t id : mapper.map().keyframeIds()) points += mapper.store().entry(id).points.size();
   EXPECT_EQ(mapper.map().storedPointCount(), points);
@@ -279,9 +257,9 @@ DepthMap wallWithBlob(const DepthProblem& problem, double blob_min_x, double blo
   return map;
 }
 
-size_t pointsNearerThan(const MapCloud& cloud, double z) {
+size_t pointsNearerThan(const PointCloud& cloud, double z) {
   size_t count = 0;
-  for (const Eigen::Vector3f& p : cloud.positions) count += p.z() < z;
+  for (const Eigen::Vector3f& p : cloud.points) count += p.z() < z;
   return count;
 }
 
@@ -304,9 +282,9 @@ TEST(OnlineMapper, OutlierThatOnlyOneViewChecksNeverReachesTheMap) {
   }
   EXPECT_TRUE(mapper.map().contains(1));
   EXPECT_TRUE(mapper.map().contains(2));
-  const MapCloud cloud = mapper.map().exportCloud();
+  const PointCloud cloud = mapper.map().exportCloud();
   ASSERT_GT(cloud.size(), 0u);
-  for (const Eigen::Vector3f& p : cloud.positions) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+  for (const Eigen::Vector3f& p : cloud.points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
 }
 
 TEST(OnlineMapper, WaitingKeyframeIsFusedWithItsLoopClosedPose) {
@@ -349,10 +327,10 @@ TEST(OnlineMapper, LoopClosureMovesTheKeyframesMapPointsExactly) {
   for (int i = 0; i < 4; ++i) mapper.process(keyframeAt(i, 0.5 * i));
   ASSERT_TRUE(mapper.map().contains(2));
   ASSERT_EQ(mapper.mapRevision(), 3u);  // keyframes 1, 2, 3 fused
-  const MapCloud before = mapper.map().exportCloud();
+  const PointCloud before = mapper.map().exportCloud();
   // Keyframe 2 moves 0.4 m up (y): its points move with it.
   EXPECT_TRUE(mapper.updatePose(2, test::poseAt({1.0, 0.4, 0})));
-  const MapCloud after = mapper.map().exportCloud();
+  const PointCloud after = mapper.map().exportCloud();
   // Keyframes 1 and 3 share voxels with 2: compare the sums of all points
   // (voxel mean times count), which only keyframe 2's points change.
   const size_t points = mapper.map().storedPointCount();
@@ -361,11 +339,11 @@ TEST(OnlineMapper, LoopClosureMovesTheKeyframesMapPointsExactly) {
   double sum_before = 0, sum_after = 0;
   size_t count_before = 0, count_after = 0;
   for (size_t i = 0; i < before.size(); ++i) {
-    sum_before += double(before.positions[i].y()) * before.counts[i];
+    sum_before += double(before.points[i].y()) * before.counts[i];
     count_before += before.counts[i];
   }
   for (size_t i = 0; i < after.size(); ++i) {
-    sum_after += double(after.positions[i].y()) * after.counts[i];
+    sum_after += double(after.points[i].y()) * after.counts[i];
     count_after += after.counts[i];
   }
   EXPECT_EQ(count_before, points);

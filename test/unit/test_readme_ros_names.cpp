@@ -92,11 +92,16 @@ KnownNames collectKnownNames(const fs::path& root) {
     if (entry.path().extension() == ".cpp")
       for (const std::string& value : captures(readText(entry.path()), compared)) known.words.insert(value);
   }
-  // Diagnostic keys the nodelet reports (counters, count() calls, status entries).
-  static const std::regex diagnostic(R"((?:counts_\[|status\.add\(|\bcount\()\s*"([^"]+)\")");
-  for (const auto& entry : fs::directory_iterator(root / "src/ros")) {
-    if (entry.path().extension() == ".cpp")
-      for (const std::string& key : captures(readText(entry.path()), diagnostic)) known.words.insert(key);
+  // Diagnostic keys the nodelet reports: its status entries and the typed
+  // counters' name tables of the inputs and the pipeline.
+  static const std::regex status(R"(status\.add\(\s*"([^"]+)\")");
+  static const std::regex counter(R"(\{\s*"([^"]+)\",\s*&(?:Input|Pipeline)Stats::)");
+  for (const char* folder : {"src/ros", "src/mapping"}) {
+    for (const auto& entry : fs::directory_iterator(root / folder)) {
+      if (entry.path().extension() != ".cpp") continue;
+      for (const std::regex* pattern : {&status, &counter})
+        for (const std::string& key : captures(readText(entry.path()), *pattern)) known.words.insert(key);
+    }
   }
   // Message and service types, and their field names (a service's `path`).
   static const std::regex field(R"((?:^|\n)\s*[A-Za-z][\w/]*(?:\[\d*\])?\s+(\w+)\s*(?:#[^\n]*)?(?=\n|$))");

@@ -17,6 +17,7 @@ struct PointCloud {
   std::vector<Eigen::Vector3f> normals;
   std::vector<std::array<uint8_t, 3>> colors;  // RGB
   std::vector<float> confidence;
+  std::vector<uint32_t> counts;  // points merged into each (a voxel map's export); not written to files
 
   size_t size() const { return points.size(); }
   // Empty when consistent; otherwise which attribute has the wrong length or

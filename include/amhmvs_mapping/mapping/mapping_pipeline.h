@@ -61,26 +61,12 @@ struct PipelineOptions {
   std::string validate() const;
 };
 
-// Wall-clock milliseconds of the stages of one result (0 where a stage did
-// not run). The estimate is the estimator's own time (CUDA events on the GPU).
-struct StageTimes {
-  double queue_wait_ms = 0;    // from push() to the start of processing (new keyframes)
-  double selection_ms = 0;     // source views
-  double depth_range_ms = 0;
-  double problem_ms = 0;       // building the depth problem (images, cameras)
-  double estimate_ms = 0;      // the estimator, wall clock
-  double fusion_ms = 0;        // consistency checks of the keyframes fused by this result
-  double map_ms = 0;           // voxel map updates
-  double total_ms = 0;         // the whole step for this result (without queue_wait_ms)
-};
-
 // One result of step(): a new keyframe, a late depth map or a refinement.
 struct PipelineOutput {
-  KeyframeResult result;
-  StageTimes times;
+  KeyframeResult result;  // result.times: the stages, queue wait included
 };
 
-// Counters since construction or the last reset (typed: the nodelet's
+// Counters since construction (drops) or the last reset (the rest) (typed: the nodelet's
 // diagnostics and amhmvs_map's summary list them with pipelineStatFields()).
 struct PipelineStats {
   // Input.
@@ -163,7 +149,8 @@ class MappingPipeline {
   void pushPoseUpdate(int64_t id, const Eigen::Isometry3d& camera_to_world);
   // Forgets every queued and stored keyframe and the map at the start of the
   // next step(); the queue is cleared at once. Returns the keyframes discarded
-  // from the queue. Counters restart from zero.
+  // from the queue. Counters of work and state restart
+  // from zero at once; drop counters keep counting (lost input stays visible).
   size_t requestReset();
   // New mapper and estimator options, applied at the start of the next step()
   // (a new voxel size rebuilds the map). Invalid options are refused there
@@ -216,6 +203,7 @@ class MappingPipeline {
 
   mutable std::mutex stats_mutex_;
   PipelineStats stats_;
+  std::mutex report_mutex_;
   std::map<std::string, double> last_report_;  // kind -> steady seconds
 };
 

@@ -16,7 +16,8 @@
 
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
-#include "amhmvs_mapping/mapping/voxel_map.h"
+#include "amhmvs_mapping/io/point_cloud_io.h"
+#include "amhmvs_mapping/mapping/keyframe_point.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 
 namespace amhmvs_mapping {
@@ -55,8 +56,8 @@ sensor_msgs::ImagePtr depthPreviewMsg(const amhmvs::ImageF& depth, const std_msg
 // packed 0x00RRGGBB): one point per entry of `cloud` (the global map in the
 // fixed frame, or a keyframe's fused points in its optical frame). Entries
 // with a non-finite position or normal are left out: no NaN points.
-sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::MapCloud& cloud, const std_msgs::Header& header);
+sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::PointCloud& cloud, const std_msgs::Header& header);
 // A keyframe's fused points (camera frame) in the cloud layout.
-amhmvs::MapCloud keyframeCloud(const amhmvs::KeyframePoints& points);
+amhmvs::PointCloud keyframeCloud(const amhmvs::KeyframePoints& points);
 
 }  // namespace amhmvs_mapping
