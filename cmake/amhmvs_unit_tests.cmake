@@ -7,8 +7,10 @@
 
 function(amhmvs_unit_test_sources var)
   file(GLOB tests CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/test/unit/test_*.cpp)
-  set(${var} ${tests} ${CMAKE_CURRENT_SOURCE_DIR}/src/tools/depth_job.cpp
-      ${CMAKE_CURRENT_SOURCE_DIR}/src/tools/synthetic_problem.cpp PARENT_SCOPE)
+  set(tools depth_job synthetic_problem keyframe_picker map_options async_writer)
+  list(TRANSFORM tools PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/src/tools/)
+  list(TRANSFORM tools APPEND .cpp)
+  set(${var} ${tests} ${tools} PARENT_SCOPE)
 endfunction()
 
 function(amhmvs_configure_unit_tests target)

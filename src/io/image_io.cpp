@@ -115,6 +115,25 @@ ImageU8 readPnm(const std::string& path) {
   return image;
 }
 
+// 16-bit gray PGM, values as stored.
+Image<uint16_t> readPgm16(const std::string& path) {
+  const std::string bytes = internal::readFileBytes(path);
+  const PnmHeader h = parsePnmHeader(bytes, path);
+  if (h.channels != 1 || h.maxval <= 255) {
+    throw InputError(path + ": expected a 16-bit gray PGM (P5, maxval > 255) for a depth map");
+  }
+  const size_t count = static_cast<size_t>(h.width) * h.height;
+  if (bytes.size() - h.data_offset < 2 * count) {
+    throw InputError(path + ": truncated PGM data");
+  }
+  Image<uint16_t> image(h.width, h.height, 1);
+  const auto* src = reinterpret_cast<const uint8_t*>(bytes.data() + h.data_offset);
+  for (size_t i = 0; i < count; ++i) {
+    image.data[i] = static_cast<uint16_t>((src[2 * i] << 8) | src[2 * i + 1]);  // big-endian
+  }
+  return image;
+}
+
 // ---- Header-only sizes -----------------------------------------------------
 
 uint32_t bigEndian32(const uint8_t* p) {
@@ -338,6 +357,16 @@ ImageU8 readImage(const std::string& path) {
                    ": this build has no PNG/JPEG decoder (built without OpenCV); convert the "
                    "image to binary PGM/PPM (e.g. `convert in.png out.ppm`) or rebuild with "
                    "OpenCV");
+#endif
+}
+
+Image<uint16_t> readImage16(const std::string& path) {
+  if (isPnmMagic(readHead(path, 2))) return readPgm16(path);
+#ifdef AMHMVS_WITH_OPENCV
+  return internal::readImage16OpenCv(path);
+#else
+  throw InputError(path + ": this build has no PNG decoder (built without OpenCV); convert the "
+                   "depth image to a 16-bit PGM or rebuild with OpenCV");
 #endif
 }
 

@@ -218,7 +218,9 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
     if (fused.consistency_ids.size() < required) continue;
     waiting_.erase(std::find(waiting_.begin(), waiting_.end(), id));
     fused.id = id;
-    fused.again = map_.contains(id);
+    EstimateRecord& record = estimates_[id];
+    fused.again = record.fused;
+    record.fused = true;
     fused.stamp = store_.keyframe(id).stamp;
     fused.camera = store_.keyframe(id).camera;
     Clock::time_point start = Clock::now();
@@ -229,7 +231,7 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
       noteEvicted(store_.attachPoints(id, fused.points), result);
       fused.map_update = map_.addKeyframe(id, store_.keyframe(id).cameraToWorld(), fused.points);  // replaces
       ++map_revision_;
-    } else if (fused.again) {
+    } else if (map_.contains(id)) {
       map_.removeKeyframe(id);  // the refined depth map confirms nothing of the old points
       ++map_revision_;
     }

@@ -1,5 +1,6 @@
 #include "amhmvs_mapping/ros/mapping_inputs.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -36,10 +37,11 @@ const std::vector<InputStatField>& inputStatFields() {
 
 MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const MappingConfig& config,
                              Callbacks callbacks)
-    : config_(config), callbacks_(std::move(callbacks)) {
+    : config_(config), callbacks_(std::move(callbacks)), started_(ros::WallTime::now()) {
   keyframe_poses_sub_ = nh.subscribe("keyframe_poses", 10, &MappingInputs::keyframePosesCallback, this);
   if (config_.input_mode == "keyframe") {
     keyframe_sub_ = nh.subscribe("keyframe", 10, &MappingInputs::keyframeCallback, this);
+    watch(keyframe_sub_.getTopic(), [this] { return keyframe_sub_.getNumPublishers(); });
     return;
   }
   it_.reset(new image_transport::ImageTransport(nh));
@@ -47,9 +49,20 @@ MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const Ma
   image_filter_.reset(new image_transport::SubscriberFilter(
       *it_, "image", q, image_transport::TransportHints("raw", ros::TransportHints(), pnh)));
   info_filter_.reset(new message_filters::Subscriber<sensor_msgs::CameraInfo>(nh, "camera_info", q));
+  // Arrivals of each topic, before synchronisation (what is silent?).
+  const size_t image = watch(image_filter_->getTopic(),
+                             [this] { return image_filter_->getSubscriber().getNumPublishers(); });
+  image_filter_->registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
+      [this, image](const sensor_msgs::ImageConstPtr&) { noteArrival(image); }));
+  const size_t info = watch(info_filter_->getTopic(), [this] { return info_filter_->getSubscriber().getNumPublishers(); });
+  info_filter_->registerCallback(boost::function<void(const sensor_msgs::CameraInfoConstPtr&)>(
+      [this, info](const sensor_msgs::CameraInfoConstPtr&) { noteArrival(info); }));
   const ros::Duration max_interval(config_.sync_max_interval);
   if (config_.input_mode == "pose") {
     pose_filter_.reset(new message_filters::Subscriber<geometry_msgs::PoseStamped>(nh, "pose", q));
+    const size_t pose = watch(pose_filter_->getTopic(), [this] { return pose_filter_->getSubscriber().getNumPublishers(); });
+    pose_filter_->registerCallback(boost::function<void(const geometry_msgs::PoseStampedConstPtr&)>(
+        [this, pose](const geometry_msgs::PoseStampedConstPtr&) { noteArrival(pose); }));
     PoseSync policy(q);
     policy.setMaxIntervalDuration(max_interval);
     pose_sync_.reset(new message_filters::Synchronizer<PoseSync>(static_cast<const PoseSync&>(policy), *image_filter_,
@@ -57,6 +70,10 @@ MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const Ma
     pose_sync_->registerCallback(&MappingInputs::poseCallback, this);
   } else if (config_.input_mode == "odometry") {
     odometry_filter_.reset(new message_filters::Subscriber<nav_msgs::Odometry>(nh, "odom", q));
+    const size_t odom = watch(odometry_filter_->getTopic(),
+                              [this] { return odometry_filter_->getSubscriber().getNumPublishers(); });
+    odometry_filter_->registerCallback(boost::function<void(const nav_msgs::OdometryConstPtr&)>(
+        [this, odom](const nav_msgs::OdometryConstPtr&) { noteArrival(odom); }));
     OdometrySync policy(q);
     policy.setMaxIntervalDuration(max_interval);
     odometry_sync_.reset(new message_filters::Synchronizer<OdometrySync>(
@@ -107,6 +124,56 @@ InputStats MappingInputs::stats() const {
   return stats_;
 }
 
+size_t MappingInputs::watch(const std::string& name, std::function<uint32_t()> publishers) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  topics_.push_back({name, std::move(publishers), ros::WallTime()});
+  return topics_.size() - 1;
+}
+
+void MappingInputs::noteArrival(size_t topic) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  topics_[topic].last_arrival = ros::WallTime::now();
+}
+
+std::vector<std::string> MappingInputs::silenceProblems(double silence_s) const {
+  std::vector<std::string> problems;
+  const ros::WallTime now = ros::WallTime::now();
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  const auto recent = [&](const ros::WallTime& t) { return !t.isZero() && (now - t).toSec() < silence_s; };
+  std::string delivering;  // a topic that delivers now
+  for (const Topic& topic : topics_)
+    if (recent(topic.last_arrival)) delivering = topic.name;
+  for (const Topic& topic : topics_) {
+    if (topic.publishers() == 0) {
+      problems.push_back("no publisher on " + topic.name);
+    } else if (!delivering.empty() && !recent(topic.last_arrival)) {
+      std::ostringstream line;
+      line << "nothing on " << topic.name << " for " << (topic.last_arrival.isZero() ? (now - started_).toSec()
+                                                                                      : (now - topic.last_arrival).toSec())
+           << " s while " << delivering << " delivers";
+      problems.push_back(line.str());
+    }
+  }
+  // Every topic delivers but no frame came out of the synchroniser.
+  const bool all_deliver = topics_.size() > 1 && std::all_of(topics_.begin(), topics_.end(), [&](const Topic& t) {
+                             return recent(t.last_arrival);
+                           });
+  const bool synchronised = recent(last_synchronised_) || (now - started_).toSec() < silence_s;
+  if (all_deliver && !synchronised && config_.input_mode != "keyframe") {
+    std::ostringstream line;
+    line << "messages arrive on every input topic but none synchronise for " << silence_s
+         << " s: their stamps differ by more than ~sync_max_interval (" << config_.sync_max_interval << " s)";
+    problems.push_back(line.str());
+  }
+  return problems;
+}
+
+void MappingInputs::noteSynchronised() {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  last_synchronised_ = ros::WallTime::now();
+  if (keyframe_sub_) topics_[0].last_arrival = last_synchronised_;  // keyframe mode: the one topic
+}
+
 void MappingInputs::count(uint64_t InputStats::*counter) {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++(stats_.*counter);
@@ -132,6 +199,7 @@ void MappingInputs::drop(uint64_t InputStats::*counter, const std::string& detai
 // ---------------------------------------------------------------- callbacks ---
 
 void MappingInputs::keyframeCallback(const amhmvs_mapping::KeyframeConstPtr& msg) {
+  noteSynchronised();
   Frame frame;
   frame.id = msg->keyframe_id;
   frame.header.stamp = msg->header.stamp;
@@ -171,6 +239,7 @@ void MappingInputs::odometryCallback(const sensor_msgs::ImageConstPtr& image,
 
 void MappingInputs::offerImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
                                const std::string& pose_frame, const geometry_msgs::Pose& pose) {
+  noteSynchronised();
   if (!pose_frame.empty() && pose_frame != config_.fixed_frame) {
     ROS_WARN_ONCE("%s frame '%s' is not ~fixed_frame '%s': the poses are used as they are",
                   config_.input_mode.c_str(), pose_frame.c_str(), config_.fixed_frame.c_str());
@@ -184,6 +253,7 @@ void MappingInputs::offerImage(const sensor_msgs::ImageConstPtr& image, const se
 
 void MappingInputs::cameraCallback(const sensor_msgs::ImageConstPtr& image,
                                    const sensor_msgs::CameraInfoConstPtr& info) {
+  noteSynchronised();
   // Polls with a wall-clock timeout: tf2's own timeout runs on ROS time,
   // which stands still when a replayed bag ends (the callback would hang).
   const std::string& source = image->header.frame_id;
@@ -223,7 +293,8 @@ void MappingInputs::offer(Frame frame, const geometry_msgs::Pose& pose, bool pic
     }
   }
   if (!supportedEncoding(frame.image->encoding)) {
-    drop(&InputStats::dropped_encoding, "image encoding '" + frame.image->encoding + "' is not mono8, rgb8 or bgr8");
+    drop(&InputStats::dropped_encoding, "image encoding '" + frame.image->encoding +
+                                            "' is not mono8, mono16, rgb8, bgr8, rgba8, bgra8 or bayer_*8");
     return;
   }
   std::string problem = poseFromMsg(pose, &frame.camera_to_world);

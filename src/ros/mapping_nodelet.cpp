@@ -1,5 +1,8 @@
 #include "amhmvs_mapping/ros/mapping_nodelet.h"
 
+#include <cstdlib>
+
+#include <boost/filesystem.hpp>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "amhmvs_mapping/core/error.h"
@@ -22,6 +25,10 @@ void MappingNodelet::onInit() {
   std::string errors;
   config_ = loadMappingConfig(pnh, &errors);
   if (!errors.empty()) NODELET_ERROR("invalid parameters, defaults used instead:\n%s", errors.c_str());
+  if (config_.map_directory.empty()) {
+    const char* pwd = std::getenv("PWD");  // roslaunch's own directory (a node runs in ~/.ros)
+    config_.map_directory = pwd ? pwd : boost::filesystem::current_path().string();
+  }
 
   amhmvs::PipelineOptions options;
   options.mapper = config_.mapper;
@@ -108,9 +115,13 @@ void MappingNodelet::workerLoop() {
 
 bool MappingNodelet::saveMapService(amhmvs_mapping::SaveMap::Request& req, amhmvs_mapping::SaveMap::Response& res) {
   try {
+    if (req.path.empty()) throw amhmvs::InputError("empty path: give a file name ending in .ply or .pcd");
+    // Relative paths go to ~map_directory (default: where roslaunch was
+    // started, not the node's working directory ~/.ros).
+    const boost::filesystem::path path = boost::filesystem::absolute(req.path, config_.map_directory);
     pipeline_->withMapper([&](const amhmvs::OnlineMapper& mapper) {
-      amhmvs::writeMap(req.path, mapper.map());
-      res.message = "saved " + std::to_string(mapper.map().voxelCount()) + " points to " + req.path;
+      amhmvs::writeMap(path.string(), mapper.map());
+      res.message = "saved " + std::to_string(mapper.map().voxelCount()) + " points to " + path.string();
     });
     res.success = true;
     NODELET_INFO("%s", res.message.c_str());
@@ -164,10 +175,31 @@ void MappingNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   const amhmvs::PipelineStats pipeline = pipeline_->stats();
   const InputStats input = inputs_ ? inputs_->stats() : InputStats();
   const uint64_t dropped = pipeline.droppedTotal() + input.droppedTotal();
-  if (dropped == 0)
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, paused_ ? "paused" : "ok");
-  else
-    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%lu inputs dropped", static_cast<unsigned long>(dropped));
+  const ros::WallTime now = ros::WallTime::now();
+  // Drops within the window: a WARN that clears once drops stop.
+  drop_history_.emplace_back(now, dropped);
+  while (drop_history_.size() > 1 && (now - drop_history_[1].first).toSec() >= config_.drop_warning_window)
+    drop_history_.pop_front();
+  const uint64_t recent_drops = dropped - drop_history_.front().second;
+  const std::vector<std::string> silence = inputs_ ? inputs_->silenceProblems(config_.silence_timeout)
+                                                   : std::vector<std::string>();
+  std::string silence_text;
+  for (const std::string& line : silence) silence_text += (silence_text.empty() ? "" : "; ") + line;
+  if (!silence.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, silence_text);
+    if (last_silence_report_.isZero() || (now - last_silence_report_).toSec() >= config_.silence_timeout) {
+      NODELET_WARN("inputs: %s", silence_text.c_str());
+      last_silence_report_ = now;
+    }
+  } else if (recent_drops > 0) {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%lu inputs dropped in the last %.0f s (%lu in all)",
+                    static_cast<unsigned long>(recent_drops), config_.drop_warning_window,
+                    static_cast<unsigned long>(dropped));
+  } else {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "%s (%lu inputs dropped in all)", paused_ ? "paused" : "ok",
+                    static_cast<unsigned long>(dropped));
+  }
+  status.add("dropped in window", recent_drops);
   status.add("backend", pipeline.backend);
   status.add("input mode", config_.input_mode);
   status.add("paused", static_cast<bool>(paused_));
@@ -176,7 +208,6 @@ void MappingNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   status.add("last keyframe ms", pipeline.last_total_ms);
   status.add("gpu memory MiB", pipeline.gpu_memory_bytes / double(1 << 20));
   status.add("map_publications", outputs_->mapPublications());
-  const ros::WallTime now = ros::WallTime::now();
   if (!last_rate_time_.isZero() && now > last_rate_time_)
     status.add("input rate hz", (input.frames_received - last_rate_frames_) / (now - last_rate_time_).toSec());
   last_rate_time_ = now;

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include <boost/make_shared.hpp>
+#include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 
@@ -17,37 +18,47 @@ namespace amhmvs_mapping {
 
 namespace enc = sensor_msgs::image_encodings;
 
+// The encodings read, and what each becomes: grey stays grey (1 channel),
+// colour and Bayer mosaics become RGB (cv_bridge converts and debayers).
 bool supportedEncoding(const std::string& encoding) {
-  return encoding == enc::MONO8 || encoding == enc::RGB8 || encoding == enc::BGR8;
+  static const std::string* const kSupported[] = {&enc::MONO8,       &enc::MONO16,      &enc::RGB8,
+                                                  &enc::BGR8,        &enc::RGBA8,       &enc::BGRA8,
+                                                  &enc::BAYER_RGGB8, &enc::BAYER_BGGR8, &enc::BAYER_GBRG8,
+                                                  &enc::BAYER_GRBG8};
+  for (const std::string* supported : kSupported)
+    if (encoding == *supported) return true;
+  return false;
 }
 
 std::string imageFromMsg(const sensor_msgs::Image& msg, amhmvs::ImageU8* image) {
   if (!supportedEncoding(msg.encoding))
-    return "unsupported encoding '" + msg.encoding + "' (mono8, rgb8 or bgr8)";
-  const int channels = msg.encoding == enc::MONO8 ? 1 : 3;
+    return "unsupported encoding '" + msg.encoding + "' (mono8, mono16, rgb8, bgr8, rgba8, bgra8, bayer_*8)";
   if (msg.width == 0 || msg.height == 0) return "empty image";
-  const size_t row_bytes = static_cast<size_t>(msg.width) * channels;
-  if (msg.step < row_bytes || msg.data.size() < static_cast<size_t>(msg.step) * msg.height) {
+  // cv_bridge trusts step and the data length: check them first.
+  const size_t channel_bytes = enc::bitDepth(msg.encoding) / 8;
+  const size_t row_bytes = static_cast<size_t>(msg.width) * enc::numChannels(msg.encoding) * channel_bytes;
+  if (msg.step < row_bytes || msg.step % channel_bytes != 0 ||
+      msg.data.size() < static_cast<size_t>(msg.step) * msg.height) {
     std::ostringstream out;
-    out << "image data does not match its size: " << msg.width << "x" << msg.height << " step "
-        << msg.step << ", " << msg.data.size() << " bytes";
+    out << "image data does not match its size: " << msg.width << "x" << msg.height << " " << msg.encoding
+        << " step " << msg.step << ", " << msg.data.size() << " bytes";
     return out.str();
   }
-  *image = amhmvs::ImageU8(msg.width, msg.height, channels);
-  const bool swap = msg.encoding == enc::BGR8;
-  for (uint32_t y = 0; y < msg.height; ++y) {
-    const uint8_t* row = msg.data.data() + static_cast<size_t>(y) * msg.step;
-    uint8_t* out = image->data.data() + y * row_bytes;
-    if (!swap) {
-      std::memcpy(out, row, row_bytes);
-    } else {
-      for (uint32_t x = 0; x < msg.width; ++x) {
-        out[3 * x] = row[3 * x + 2];
-        out[3 * x + 1] = row[3 * x + 1];
-        out[3 * x + 2] = row[3 * x];
-      }
-    }
+  const bool grey = msg.encoding == enc::MONO8 || msg.encoding == enc::MONO16;
+  cv_bridge::CvImageConstPtr converted;
+  try {
+    converted = cv_bridge::toCvCopy(msg, grey ? enc::MONO8 : enc::RGB8);
+  } catch (const cv_bridge::Exception& e) {
+    return std::string("cv_bridge: ") + e.what();
+  } catch (const cv::Exception& e) {
+    return std::string("OpenCV: ") + e.what();
   }
+  const cv::Mat& mat = converted->image;
+  const int channels = mat.channels();
+  *image = amhmvs::ImageU8(mat.cols, mat.rows, channels);
+  for (int y = 0; y < mat.rows; ++y)
+    std::memcpy(image->data.data() + static_cast<size_t>(y) * mat.cols * channels, mat.ptr<uint8_t>(y),
+                static_cast<size_t>(mat.cols) * channels);
   return "";
 }
 

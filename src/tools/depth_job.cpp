@@ -12,11 +12,13 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
+#include "amhmvs_mapping/eval/ground_truth_depth.h"
 #include "amhmvs_mapping/io/colmap_model.h"
 #include "amhmvs_mapping/io/colormap.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"
+#include "tool_options.h"
 
 namespace amhmvs {
 namespace {
@@ -45,21 +47,6 @@ std::string viewFolderName(int view_id) {
   char name[16];
   std::snprintf(name, sizeof(name), "%08d", view_id);
   return name;
-}
-
-// Ground truth sampled at the processed resolution (nearest pixel).
-ImageF groundTruthAt(const std::string& path, int width, int height) {
-  const ImageF full = readPfm(path);
-  if (full.sameSize(width, height)) return full;
-  ImageF out(width, height);
-  for (int y = 0; y < height; ++y) {
-    const int sy = std::min(full.height - 1, static_cast<int>((y + 0.5) * full.height / height));
-    for (int x = 0; x < width; ++x) {
-      const int sx = std::min(full.width - 1, static_cast<int>((x + 0.5) * full.width / width));
-      out.at(x, y) = full.at(sx, sy);
-    }
-  }
-  return out;
 }
 
 // Every view at its processed size, and every reference view with the depth
@@ -162,9 +149,10 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
     ++written;
     std::string accuracy;
     if (!options.ground_truth_dir.empty()) {
+      // Ground truth sampled at the processed resolution (nearest pixel).
       const ImageF truth =
-          groundTruthAt(options.ground_truth_dir + "/" + viewFolderName(ids[i]) + ".pfm",
-                        map.depth.width, map.depth.height);
+          resampleNearest(readPfm(options.ground_truth_dir + "/" + viewFolderName(ids[i]) + ".pfm"),
+                          map.depth.width, map.depth.height);
       const AccuracyCounts counts = denseDepthAccuracy(map.depth, truth, nullptr);
       pooled.merge(counts);
       accuracy = ", within 1/2/5 % of ground truth: " + counts.percentages() + " %";
@@ -184,16 +172,6 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
 }
 
 namespace {
-
-template <typename T>
-T parseValue(const std::string& option, const std::string& text) {
-  std::istringstream in(text);
-  T value;
-  if (!(in >> value) || !(in >> std::ws).eof()) {
-    throw InputError("option --" + option + ": '" + text + "' is not a valid value");
-  }
-  return value;
-}
 
 std::vector<int> parseIdList(const std::string& text) {
   std::vector<int> ids;
@@ -243,23 +221,10 @@ DepthJobOptions parseDepthJobArguments(const std::vector<std::string>& arguments
   DepthJobOptions options;
   bool depth_min_given = false, depth_max_given = false;
   for (size_t i = 0; i < arguments.size(); ++i) {
-    const std::string& arg = arguments[i];
-    if (arg == "--quiet") {
-      options.quiet = true;
-      continue;
-    }
-    if (arg.rfind("--", 0) != 0) throw InputError("unexpected argument '" + arg + "'");
-    std::string name = arg.substr(2), value;
-    const size_t eq = name.find('=');
-    if (eq != std::string::npos) {
-      value = name.substr(eq + 1);
-      name = name.substr(0, eq);
-    } else if (i + 1 < arguments.size()) {
-      value = arguments[++i];
-    } else {
-      throw InputError("option --" + name + " needs a value");
-    }
-    if (name == "views") options.reference_ids = parseIdList(value);
+    std::string name, value;
+    nextOption(arguments, &i, {"quiet"}, &name, &value);
+    if (name == "quiet") options.quiet = parseSwitch(name, value);
+    else if (name == "views") options.reference_ids = parseIdList(value);
     else if (name == "num_sources") options.problem.max_sources = parseValue<int>(name, value);
     else if (name == "max_image_size") options.problem.max_image_size = parseValue<int>(name, value);
     else if (name == "scale") options.problem.scale = parseValue<double>(name, value);
@@ -273,16 +238,8 @@ DepthJobOptions parseDepthJobArguments(const std::vector<std::string>& arguments
     else if (name == "backend") options.backend = parseBackend(value);
     else if (name == "max_cost") options.max_cost = parseValue<float>(name, value);
     else if (name == "ground_truth") options.ground_truth_dir = value;
-    else {
-      bool known = false;
-      for (const OptionInfo& info : patchMatchOptionTable()) {
-        if (info.name == name) {
-          info.set(options.patchmatch, value);
-          known = true;
-        }
-      }
-      if (!known) throw InputError("unknown option --" + name + " (see --help)");
-    }
+    else if (!setPatchMatchOption(name, value, &options.patchmatch))
+      throw InputError("unknown option --" + name + " (see --help)");
   }
   checkOptionMeanings(options, depth_min_given, depth_max_given);
   const std::string problems = options.problem.validate() + options.patchmatch.validate();

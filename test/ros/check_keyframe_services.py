@@ -100,6 +100,21 @@ class KeyframeServices(unittest.TestCase):
         res = watch.call('save_map', SaveMap, os.path.join(folder, 'map.txt'))
         self.assertFalse(res.success)
         self.assertIn('map.txt', res.message)
+        res = watch.call('save_map', SaveMap, '')
+        self.assertFalse(res.success)
+        self.assertIn('empty path', res.message)
+        # A relative path lands in ~map_directory (here its default: where
+        # roslaunch started, $PWD, not the node's ~/.ros), named in full.
+        relative = 'amhmvs_keyframe_services_map.ply'
+        expected = os.path.join(os.environ['PWD'], relative)
+        try:
+            res = watch.call('save_map', SaveMap, relative)
+            self.assertTrue(res.success, res.message)
+            self.assertTrue(res.message.endswith(' to ' + expected), res.message)
+            self.assertTrue(os.path.isfile(expected))
+        finally:
+            if os.path.exists(expected):
+                os.remove(expected)
 
         # Loop closure: every keyframe 1 m along x; the map follows.
         update = KeyframePoses()

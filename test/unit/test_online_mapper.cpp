@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <set>
 #include <stdexcept>
@@ -261,6 +262,39 @@ size_t pointsNearerThan(const PointCloud& cloud, double z) {
   size_t count = 0;
   for (const Eigen::Vector3f& p : cloud.points) count += p.z() < z;
   return count;
+}
+
+TEST(OnlineMapper, KeyframeFusedFirstWithoutPointsIsFusedAgainWhenRefined) {
+  OnlineMapperOptions options = wallOptions();
+  options.refinement.min_score_gain = 1.01;
+  int first_estimates_of_1 = 0;
+  OnlineMapper mapper(options, [&](const DepthProblem& problem) {
+    DepthMap map = wallDepth(problem);
+    const bool keyframe_1 = std::abs(cameraToWorld(problem.reference_camera).translation().x() - 0.5) < 1e-9;
+    if (keyframe_1 && first_estimates_of_1++ == 0)  // its first depth map confirms nothing
+      std::fill(map.depth.data.begin(), map.depth.data.end(), std::numeric_limits<float>::quiet_NaN());
+    return map;
+  });
+  std::vector<FusedKeyframe> fusions_of_1;
+  const auto keep = [&](const KeyframeResult& result) {
+    for (const FusedKeyframe& fused : result.fused)
+      if (fused.id == 1) fusions_of_1.push_back(fused);
+  };
+  for (int i = 0; i < 3; ++i) {
+    keep(mapper.process(keyframeAt(i, 0.5 * i)));
+    KeyframeResult late;
+    if (mapper.estimateLate(&late)) keep(late);
+  }
+  ASSERT_EQ(fusions_of_1.size(), 1u);
+  EXPECT_FALSE(fusions_of_1[0].again);
+  EXPECT_TRUE(fusions_of_1[0].points.empty());
+  EXPECT_FALSE(mapper.map().contains(1));
+  KeyframeResult refined;
+  while (mapper.refine(&refined)) keep(refined);
+  ASSERT_EQ(fusions_of_1.size(), 2u);
+  EXPECT_TRUE(fusions_of_1[1].again);  // a second fusion, though the first left no point
+  EXPECT_FALSE(fusions_of_1[1].points.empty());
+  EXPECT_TRUE(mapper.map().contains(1));
 }
 
 TEST(OnlineMapper, OutlierThatOnlyOneViewChecksNeverReachesTheMap) {

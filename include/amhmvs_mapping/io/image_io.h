@@ -28,6 +28,12 @@ bool canDecodeCompressedImages();
 // InputError naming the file and the problem.
 ImageU8 readImage(const std::string& path);
 
+// Reads a single-channel 16-bit image (depth maps: Kinect, TUM, 7-Scenes)
+// with its stored values: binary PGM with maxval > 255 natively, PNG and
+// other formats through OpenCV. Throws InputError naming the file for other
+// channel counts or sample types, and for PNG in builds without OpenCV.
+Image<uint16_t> readImage16(const std::string& path);
+
 // Image width and height from the file header alone, without decoding pixels:
 // PNG (IHDR), JPEG (SOFn marker), BMP and PGM/PPM. Returns false for formats
 // it cannot size from the header (the caller may then decode the image).

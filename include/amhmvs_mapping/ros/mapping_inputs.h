@@ -88,6 +88,11 @@ class MappingInputs {
   void restart();
   void setKeyframePicking(double min_translation, double min_rotation_deg);
   InputStats stats() const;
+  // What is wrong with the input topics now, one line each (empty: nothing):
+  // a topic without a publisher; a topic silent for `silence_s` seconds while
+  // another input topic delivers; images and camera_info (and poses) that
+  // arrive but never synchronise. Topics by their resolved names.
+  std::vector<std::string> silenceProblems(double silence_s) const;
 
  private:
   using PoseSync = message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::CameraInfo,
@@ -122,6 +127,16 @@ class MappingInputs {
   // The frame's image and camera (downscaled to ~max_image_size) as a core
   // keyframe; throws amhmvs::InputError when they do not fit together.
   amhmvs::Keyframe toKeyframe(const Frame& frame) const;
+  // One input topic: its resolved name, publishers and last arrival.
+  struct Topic {
+    std::string name;
+    std::function<uint32_t()> publishers;
+    ros::WallTime last_arrival;  // zero: never
+  };
+  // Registers a topic (constructor); returns its index for noteArrival().
+  size_t watch(const std::string& name, std::function<uint32_t()> publishers);
+  void noteArrival(size_t topic);
+  void noteSynchronised();  // a synchronised frame (or a keyframe message) came
   void count(uint64_t InputStats::*counter);
   // Counts a dropped input and reports it (throttled per reason).
   void drop(uint64_t InputStats::*counter, const std::string& detail);
@@ -150,6 +165,8 @@ class MappingInputs {
 
   mutable std::mutex stats_mutex_;
   InputStats stats_;
+  std::vector<Topic> topics_;     // by stats_mutex_ (arrivals)
+  ros::WallTime started_, last_synchronised_;
   std::map<std::string, ros::WallTime> last_report_;  // drop reason -> last report
 };
 

@@ -11,6 +11,8 @@
 #pragma once
 
 #include <atomic>
+#include <deque>
+#include <utility>
 #include <memory>
 #include <string>
 #include <thread>
@@ -69,6 +71,10 @@ class MappingNodelet : public nodelet::Nodelet {
   // Input rate over the diagnostics period.
   ros::WallTime last_rate_time_;
   uint64_t last_rate_frames_ = 0;
+  // Drop totals at past diagnostics updates, for the drops within
+  // ~drop_warning_window (WARN clears when drops stop).
+  std::deque<std::pair<ros::WallTime, uint64_t>> drop_history_;
+  ros::WallTime last_silence_report_;
 };
 
 }  // namespace amhmvs_mapping

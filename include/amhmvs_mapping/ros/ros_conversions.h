@@ -22,11 +22,13 @@
 
 namespace amhmvs_mapping {
 
-// Whether the encoding is one the nodelet reads (mono8, rgb8, bgr8).
+// Whether the encoding is one the nodelet reads: mono8, mono16, rgb8, bgr8,
+// rgba8, bgra8, bayer_rggb8/bggr8/gbrg8/grbg8.
 bool supportedEncoding(const std::string& encoding);
 
-// mono8 -> 1 channel; rgb8 and bgr8 -> 3 channels RGB. Checks encoding, size,
-// step and data length.
+// Through cv_bridge: mono8 and mono16 (scaled to 8 bits) -> 1 channel; colour
+// (alpha dropped) and Bayer mosaics (debayered) -> 3 channels RGB. Checks
+// encoding, size, step and data length first.
 std::string imageFromMsg(const sensor_msgs::Image& msg, amhmvs::ImageU8* image);
 
 // Camera-to-world pose; rejects non-finite values and quaternions whose norm
