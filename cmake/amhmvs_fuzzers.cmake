@@ -37,10 +37,14 @@ macro(amhmvs_define_fuzzers)
   find_library(AMHMVS_ROSTIME rostime)
   find_library(AMHMVS_ROS_SERIALIZATION roscpp_serialization)
   find_library(AMHMVS_CPP_COMMON cpp_common)
-  if(AMHMVS_ROS_MSG_INCLUDE AND AMHMVS_ROSTIME AND AMHMVS_ROS_SERIALIZATION AND AMHMVS_CPP_COMMON)
-    amhmvs_add_fuzzer(fuzz_ros_conversions fuzz_ros_conversions.cpp
+  find_library(AMHMVS_CV_BRIDGE cv_bridge)
+  find_package(OpenCV QUIET COMPONENTS core imgproc)
+  if(AMHMVS_ROS_MSG_INCLUDE AND AMHMVS_ROSTIME AND AMHMVS_ROS_SERIALIZATION AND AMHMVS_CPP_COMMON
+     AND AMHMVS_CV_BRIDGE AND OpenCV_FOUND)
+    amhmvs_add_fuzzer(fuzz_ros_conversions fuzz_ros_conversions.cpp ${AMHMVS_CV_BRIDGE} ${OpenCV_LIBS}
                       ${AMHMVS_ROSTIME} ${AMHMVS_ROS_SERIALIZATION} ${AMHMVS_CPP_COMMON})
     target_sources(fuzz_ros_conversions PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src/ros/ros_conversions.cpp)
+    target_include_directories(fuzz_ros_conversions SYSTEM PRIVATE ${OpenCV_INCLUDE_DIRS})
   else()
     message(STATUS "amhmvs: no ROS message headers/libraries: fuzz_ros_conversions not built")
   endif()

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <iterator>
 
 #include "amhmvs_mapping/ros/ros_conversions.h"
 
@@ -19,17 +20,23 @@ double anyDouble(FuzzedDataProvider* in) {
 }
 
 sensor_msgs::Image image(FuzzedDataProvider* in) {
-  static const char* const kEncodings[] = {"mono8", "rgb8", "bgr8", "mono16", "32FC1", "", "rgba8"};
+  static const char* const kEncodings[] = {"mono8", "rgb8", "bgr8", "mono16", "rgba8", "bgra8",
+                                           "bayer_rggb8", "bayer_gbrg8", "32FC1", "16UC1", "", "x"};
   sensor_msgs::Image msg;
   msg.width = in->ConsumeIntegral<uint32_t>() % 4096;
   msg.height = in->ConsumeIntegral<uint32_t>() % 4096;
   if (in->ConsumeBool()) msg.width = in->ConsumeIntegral<uint32_t>();
-  msg.encoding = kEncodings[in->ConsumeIntegralInRange<size_t>(0, 6)];
-  msg.step = in->ConsumeBool() ? msg.width * (msg.encoding == "mono8" ? 1 : 3)
+  msg.encoding = kEncodings[in->ConsumeIntegralInRange<size_t>(0, std::size(kEncodings) - 1)];
+  // Half the time the step a well-formed message of 1..4 bytes per pixel has.
+  msg.step = in->ConsumeBool() ? msg.width * in->ConsumeIntegralInRange<uint32_t>(1, 4)
                                : in->ConsumeIntegral<uint32_t>();
   msg.is_bigendian = in->ConsumeBool();
   const size_t length = in->ConsumeIntegralInRange<size_t>(0, 1 << 16);
   msg.data = in->ConsumeBytes<uint8_t>(length);
+  // Half the time the length step x height says (up to 1 MiB), so that
+  // well-formed messages reach the decoders.
+  const uint64_t declared = uint64_t{msg.step} * msg.height;
+  if (in->ConsumeBool() && declared <= (1u << 20)) msg.data.resize(declared);
   return msg;
 }
 
