@@ -142,13 +142,13 @@ void OnlineMapper::estimateStored(int64_t id, SourceSelection selection, bool la
 void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
   const std::vector<int64_t>& sources = result->selection.source_ids;
   result->depth_range = estimateDepthRange(store_, id, sources, options_.depth_range);
-  DepthProblem problem;
-  problem.reference_camera = store_.keyframe(id).camera;
-  problem.reference_image = toGray(store_.keyframe(id).image);
+  // The grey images live in `owned` until the estimate returns.
+  OwnedDepthProblem owned;
+  DepthProblem& problem = owned.problem;
+  owned.setReference(store_.keyframe(id).camera, toGray(store_.keyframe(id).image));
   for (int64_t source : sources) {
     const Keyframe& view = store_.keyframe(source);
-    problem.source_cameras.push_back(view.camera);
-    problem.source_images.push_back(toGray(view.image));
+    owned.addSource(view.camera, toGray(view.image));
   }
   problem.depth_min = result->depth_range.min;
   problem.depth_max = result->depth_range.max;

@@ -55,7 +55,7 @@ void loadView(const SceneView& view, const ProblemOptions& options, PinholeCamer
 
 }  // namespace
 
-DepthProblem makeDepthProblem(const Scene& scene, int reference_id, const ProblemOptions& options) {
+OwnedDepthProblem makeDepthProblem(const Scene& scene, int reference_id, const ProblemOptions& options) {
   const std::string option_problems = options.validate();
   if (!option_problems.empty()) throw InputError("invalid problem options:\n" + option_problems);
   const int ref_index = scene.indexOf(reference_id);
@@ -66,8 +66,12 @@ DepthProblem makeDepthProblem(const Scene& scene, int reference_id, const Proble
     throw InputError("view " + std::to_string(reference_id) + " has no source views");
   }
 
-  DepthProblem problem;
-  loadView(ref, options, &problem.reference_camera, &problem.reference_image);
+  OwnedDepthProblem owned;
+  DepthProblem& problem = owned.problem;
+  PinholeCamera camera;
+  ImageU8 image;
+  loadView(ref, options, &camera, &image);
+  owned.setReference(camera, std::move(image));
   for (const SourceCandidate& candidate : sources->second) {
     if (static_cast<int>(problem.source_cameras.size()) >= options.max_sources) break;
     const int index = scene.indexOf(candidate.view_id);
@@ -75,10 +79,8 @@ DepthProblem makeDepthProblem(const Scene& scene, int reference_id, const Proble
       throw InputError("view " + std::to_string(reference_id) + ": source view " +
                        std::to_string(candidate.view_id) + " does not exist");
     }
-    problem.source_cameras.emplace_back();
-    problem.source_images.emplace_back();
-    loadView(scene.views[index], options, &problem.source_cameras.back(),
-             &problem.source_images.back());
+    loadView(scene.views[index], options, &camera, &image);
+    owned.addSource(camera, std::move(image));
   }
   if (options.depth_min > 0) {
     problem.depth_min = options.depth_min;
@@ -94,7 +96,7 @@ DepthProblem makeDepthProblem(const Scene& scene, int reference_id, const Proble
       throw InputError(why.str());
     }
   }
-  return problem;
+  return owned;
 }
 
 }  // namespace amhmvs

@@ -104,8 +104,8 @@ int main(int argc, char** argv) {
         const std::string folder = data + "/mvsnet/" + name;
         if (data.empty() || !exists(folder) || (!only.empty() && only != name)) continue;
         const Scene scene = readInputFolder(folder, 10);
-        const DepthProblem problem = makeDepthProblem(scene, 5, ProblemOptions());
-        for (int iterations : {6, 3}) rows.push_back(measure(name, problem, Backend::kCuda, iterations, runs, 0));
+        const OwnedDepthProblem owned = makeDepthProblem(scene, 5, ProblemOptions());
+        for (int iterations : {6, 3}) rows.push_back(measure(name, owned.problem, Backend::kCuda, iterations, runs, 0));
         std::fprintf(stderr, "%s done\n", name);
       }
       if (only.empty() || only == "synthetic") {

@@ -120,7 +120,8 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
   int written = 0;
   AccuracyCounts pooled;
   for (size_t i = 0; i < ids.size(); ++i) {
-    const DepthProblem problem = makeDepthProblem(scene, ids[i], options.problem);
+    const OwnedDepthProblem owned = makeDepthProblem(scene, ids[i], options.problem);
+    const DepthProblem& problem = owned.problem;
     DepthMap map = estimator.estimate(problem);
     if (options.max_cost > 0) maskByCost(&map, options.max_cost);
     if (!output_dir.empty()) writeDepthOutputs(output_dir, ids[i], problem, map);

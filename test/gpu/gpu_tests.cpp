@@ -63,7 +63,7 @@ void textureEmulation() {
       std::fclose(f);
     }
   }
-  const mvs::PaddedImage8 host(mvs::HostImage8{image.data.data(), image.width, image.height});
+  const mvs::PaddedImage8 host(image);
   double max_diff = 0, sum_diff = 0;
   long off = 0;
   for (size_t i = 0; i < xs.size(); ++i) {
@@ -81,11 +81,6 @@ void textureEmulation() {
                 sum_diff / xs.size(), max_diff, 100.0 * off / xs.size());
   expect(sum_diff / xs.size() < 0.01 && off < 0.02 * xs.size(), text);
 }
-
-struct RunResult {
-  DepthMap map;
-  DepthProblem problem;
-};
 
 DepthMap run(const DepthProblem& problem, Backend backend, const PatchMatchOptions& options = {}) {
   return DepthEstimator(options, backend).estimate(problem);
@@ -107,8 +102,8 @@ bool identical(const ImageF& a, const ImageF& b) {
          std::memcmp(a.data.data(), b.data.data(), a.data.size() * sizeof(float)) == 0;
 }
 
-DepthProblem loadProblem(const std::string& folder, int view, int max_sources = 10,
-                         int max_image_size = 0) {
+OwnedDepthProblem loadProblem(const std::string& folder, int view, int max_sources = 10,
+                              int max_image_size = 0) {
   const Scene scene = readInputFolder(folder, max_sources);
   ProblemOptions options;
   options.max_sources = max_sources;
@@ -133,7 +128,8 @@ const double kFountainFloors[3] = {98.3, 99.2, 99.5};
 void middlebury(const std::string& data, Backend backend, bool check_agreement) {
   AccuracyCounts pooled;
   for (const char* scene : kMiddleburyScenes) {
-    const DepthProblem problem = loadProblem(data + "/mvsnet/middlebury2014_" + scene, 0, 1);
+    const OwnedDepthProblem owned = loadProblem(data + "/mvsnet/middlebury2014_" + scene, 0, 1);
+    const DepthProblem& problem = owned.problem;
     const DepthMap map = run(problem, backend);
     const MiddleburyGroundTruth gt = readMiddleburyGroundTruth(data + "/middlebury2014/" + scene);
     const AccuracyCounts counts = denseDepthAccuracy(map.depth, gt.depth, &gt.nonoccluded);
@@ -251,7 +247,8 @@ void onlineMapperFountain(const std::string& data) {
 }
 
 void determinism(const std::string& data) {
-  const DepthProblem problem = loadProblem(data + "/mvsnet/fountain_x0.25", 3, 10, 384);
+  const OwnedDepthProblem owned = loadProblem(data + "/mvsnet/fountain_x0.25", 3, 10, 384);
+  const DepthProblem& problem = owned.problem;
   for (Backend backend : {Backend::kCuda, Backend::kCpu}) {
     const DepthMap a = run(problem, backend), b = run(problem, backend);
     expect(identical(a.depth, b.depth) && identical(a.normal, b.normal) && identical(a.cost, b.cost),
@@ -292,7 +289,8 @@ int main(int argc, char** argv) {
   try {
     if (sanitize) {
       // Small scene for compute-sanitizer: two iterations on a 96 px image.
-      const DepthProblem problem = loadProblem(data + "/mvsnet/fountain_x0.25", 0, 4, 96);
+      const OwnedDepthProblem owned = loadProblem(data + "/mvsnet/fountain_x0.25", 0, 4, 96);
+      const DepthProblem& problem = owned.problem;
       PatchMatchOptions options;
       options.num_iterations = 4;
       const DepthMap map = run(problem, Backend::kCuda, options);

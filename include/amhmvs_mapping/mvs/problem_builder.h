@@ -21,8 +21,9 @@ struct ProblemOptions {
 
 // Problem for reference view `reference_id`; throws InputError naming the
 // view and the problem (unknown id, no sources, no depth range, unreadable
-// image, image that does not match its camera).
-DepthProblem makeDepthProblem(const Scene& scene, int reference_id, const ProblemOptions& options);
+// image, image that does not match its camera). The images are owned by the
+// returned object (its `problem` borrows them).
+OwnedDepthProblem makeDepthProblem(const Scene& scene, int reference_id, const ProblemOptions& options);
 
 // Image size after applying scale and max_image_size to (width, height).
 void scaledSize(int width, int height, const ProblemOptions& options, int* out_width,
