@@ -17,7 +17,7 @@ size_t depthMapBytes(const DepthMap& depth) {
 }
 
 size_t payloadBytes(const StoredKeyframe& stored) {
-  return imageBytes(stored.keyframe.image) + depthMapBytes(stored.depth) +
+  return imageBytes(stored.keyframe.image) + imageBytes(stored.gray_image) + depthMapBytes(stored.depth) +
          stored.keyframe.sparse_points.size() * sizeof(Eigen::Vector3d) +
          stored.points.size() * sizeof(KeyframePoint);
 }
@@ -125,6 +125,7 @@ std::vector<int64_t> KeyframeStore::add(Keyframe keyframe) {
   }
   StoredKeyframe stored;
   stored.keyframe = std::move(keyframe);
+  if (stored.keyframe.image.channels != 1) stored.gray_image = toGray(stored.keyframe.image);
   stored.bytes = payloadBytes(stored);
   if (stored.bytes > options_.max_bytes) {
     throw InputError("keyframe store: " + keyframeName(id) + ": needs " +

@@ -1,6 +1,7 @@
 #include "amhmvs_mapping/mapping/online_mapper.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -32,6 +33,12 @@ FusionView fusionView(int local_id, const StoredKeyframe& stored) {
   view.cost = stored.depth.cost;
   view.color = stored.keyframe.image;
   return view;
+}
+
+// Milliseconds since `start` (steady clock).
+using Clock = std::chrono::steady_clock;
+double millisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
 // Total score of the selected sources (they come first among the candidates).
@@ -73,12 +80,14 @@ OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction 
 }
 
 KeyframeResult OnlineMapper::process(Keyframe keyframe) {
+  const Clock::time_point start = Clock::now();
   KeyframeResult result;
   result.id = keyframe.id;
   result.camera = keyframe.camera;
   noteEvicted(store_.add(std::move(keyframe)), &result);
   const int64_t id = result.id;
   result.selection = selectSources(store_, id, options_.sources);
+  result.times.selection_ms = millisecondsSince(start);
 
   if (result.selection.source_ids.empty()) {
     // Kept as a source: done, with a depth map that has no valid pixel.
@@ -88,6 +97,7 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
     noteEvicted(store_.attachDepth(id, std::move(none)), &result);
     if (store_.contains(id)) waiting_for_sources_.push_back(id);
     result.waiting_for_fusion = waiting_.size();
+    result.times.total_ms = millisecondsSince(start);
     return result;
   }
   store_.setSources(id, result.selection.source_ids);
@@ -97,15 +107,17 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
     store_.remove(id);
     throw;
   }
+  result.times.total_ms = millisecondsSince(start);
   return result;
 }
 
 bool OnlineMapper::estimateLate(KeyframeResult* result) {
+  const Clock::time_point start = Clock::now();
   for (const int64_t id : waiting_for_sources_) {
     SourceSelection selection = selectSources(store_, id, options_.sources);
     if (selection.source_ids.empty()) continue;
     waiting_for_sources_.erase(std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id));
-    estimateStored(id, std::move(selection), /*late=*/true, result);
+    estimateStored(id, std::move(selection), /*late=*/true, start, result);
     return true;
   }
   return false;
@@ -113,6 +125,7 @@ bool OnlineMapper::estimateLate(KeyframeResult* result) {
 
 bool OnlineMapper::refine(KeyframeResult* result) {
   if (options_.refinement.max_refinements == 0) return false;
+  const Clock::time_point start = Clock::now();
   for (auto& [id, record] : estimates_) {
     if (record.refinements >= options_.refinement.max_refinements) continue;
     SourceSelection selection = selectSources(store_, id, options_.sources);
@@ -121,14 +134,16 @@ bool OnlineMapper::refine(KeyframeResult* result) {
     std::sort(now.begin(), now.end());
     if (now == before || selectionScore(selection) < options_.refinement.min_score_gain * record.score) continue;
     ++record.refinements;  // counted also when the estimate throws; the re-estimate keeps it
-    estimateStored(id, std::move(selection), /*late=*/false, result);
+    estimateStored(id, std::move(selection), /*late=*/false, start, result);
     return true;
   }
   return false;
 }
 
-void OnlineMapper::estimateStored(int64_t id, SourceSelection selection, bool late, KeyframeResult* result) {
+void OnlineMapper::estimateStored(int64_t id, SourceSelection selection, bool late, Clock::time_point start,
+                                  KeyframeResult* result) {
   *result = KeyframeResult();
+  result->times.selection_ms = millisecondsSince(start);
   result->id = id;  // set first: the caller names the keyframe if the estimate throws
   result->late = late;
   result->refined = !late;
@@ -137,22 +152,33 @@ void OnlineMapper::estimateStored(int64_t id, SourceSelection selection, bool la
   // Done already (a depth map, or none as a source only): nothing is pending,
   // so the sources need no protection from eviction during the estimate.
   estimateAndFuse(id, result);
+  result->times.total_ms = millisecondsSince(start);
 }
 
 void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
   const std::vector<int64_t>& sources = result->selection.source_ids;
+  Clock::time_point start = Clock::now();
   result->depth_range = estimateDepthRange(store_, id, sources, options_.depth_range);
-  // The grey images live in `owned` until the estimate returns.
-  OwnedDepthProblem owned;
-  DepthProblem& problem = owned.problem;
-  owned.setReference(store_.keyframe(id).camera, toGray(store_.keyframe(id).image));
+  result->times.depth_range_ms = millisecondsSince(start);
+  start = Clock::now();
+  // Grey images were converted once, when each keyframe was stored.
+  DepthProblem problem;
+  problem.reference_camera = store_.keyframe(id).camera;
+  problem.reference_image = store_.entry(id).grayImage();
+  // Keyframe ids as image keys: a GPU estimator uploads each keyframe once
+  // (the pipeline forgets a key when its keyframe leaves the store).
+  problem.reference_key = id;
   for (int64_t source : sources) {
-    const Keyframe& view = store_.keyframe(source);
-    owned.addSource(view.camera, toGray(view.image));
+    problem.source_cameras.push_back(store_.keyframe(source).camera);
+    problem.source_images.push_back(store_.entry(source).grayImage());
+    problem.source_keys.push_back(source);
   }
   problem.depth_min = result->depth_range.min;
   problem.depth_max = result->depth_range.max;
+  result->times.problem_ms = millisecondsSince(start);
+  start = Clock::now();
   result->depth = estimate_(problem);
+  result->times.estimate_ms = millisecondsSince(start);
   result->has_depth = true;
   noteEvicted(store_.attachDepth(id, result->depth), result);
   if (!store_.contains(id)) return;
@@ -197,7 +223,10 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
     fused.again = map_.contains(id);
     fused.stamp = store_.keyframe(id).stamp;
     fused.camera = store_.keyframe(id).camera;
+    Clock::time_point start = Clock::now();
     fused.points = fuse(id, fused.consistency_ids);
+    result->times.fusion_ms += millisecondsSince(start);
+    start = Clock::now();
     if (!fused.points.empty()) {
       noteEvicted(store_.attachPoints(id, fused.points), result);
       fused.map_update = map_.addKeyframe(id, store_.keyframe(id).cameraToWorld(), fused.points);  // replaces
@@ -206,6 +235,7 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
       map_.removeKeyframe(id);  // the refined depth map confirms nothing of the old points
       ++map_revision_;
     }
+    result->times.map_ms += millisecondsSince(start);
     if (id == result->id) result->fused_now = true;
     result->fused.push_back(std::move(fused));
   }

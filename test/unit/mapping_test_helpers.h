@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "amhmvs_mapping/mapping/keyframe_store.h"
+#include "amhmvs_mapping/mapping/online_mapper.h"
 #include "test_helpers.h"
 
 namespace amhmvs {
@@ -31,6 +32,37 @@ inline Keyframe smallKeyframe(int64_t id, double stamp, const Eigen::Isometry3d&
   keyframe.setCameraToWorld(camera_to_world);
   keyframe.image = ImageU8(kKeyframeWidth, kKeyframeHeight, channels, fill);
   return keyframe;
+}
+
+// A wall z = kWallZ (world) facing cameras that look along +z: an injected
+// estimator returns its exact depth, so that sources, fusion, the map and
+// re-posing can be checked against exact numbers.
+constexpr double kWallZ = 5.0;
+
+// Depth and normal of the wall seen by the problem's reference camera.
+inline DepthMap wallDepth(const DepthProblem& problem) {
+  const PinholeCamera& camera = problem.reference_camera;
+  const double depth = kWallZ - cameraToWorld(camera).translation().z();
+  DepthMap map;
+  map.depth = ImageF(camera.width, camera.height, 1, static_cast<float>(depth));
+  map.normal = ImageF(camera.width, camera.height, 3, 0.0f);
+  for (int y = 0; y < camera.height; ++y)
+    for (int x = 0; x < camera.width; ++x) map.normal.at(x, y, 2) = -1.0f;
+  map.cost = ImageF(camera.width, camera.height, 1, 0.1f);
+  return map;
+}
+
+inline OnlineMapperOptions wallOptions() {
+  OnlineMapperOptions options;
+  options.sources.default_scene_depth = kWallZ;
+  options.sources.min_overlap = 0.3;
+  options.map.leaf_size = 0.05;
+  return options;
+}
+
+// An RGB keyframe at x metres along the wall (stamp = id).
+inline Keyframe keyframeAt(int64_t id, double x) {
+  return smallKeyframe(id, static_cast<double>(id), poseAt({x, 0, 0}), 3, 128);
 }
 
 }  // namespace test

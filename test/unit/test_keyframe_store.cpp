@@ -68,8 +68,13 @@ TEST(KeyframeStore, AddsAndLooksUpKeyframes) {
   EXPECT_EQ(store.pendingIds(), (std::vector<int64_t>{7, 3, 11}));
   EXPECT_EQ(store.keyframe(3).stamp, 8.0);
   EXPECT_EQ(store.state(11), KeyframeState::kPending);
-  EXPECT_EQ(store.entry(11).bytes, 3 * kImageBytes + 2 * sizeof(Eigen::Vector3d));
-  EXPECT_EQ(store.bytes(), 5 * kImageBytes + 2 * sizeof(Eigen::Vector3d));
+  // The RGB keyframe: its image, its grey copy (converted once, for the
+  // estimator) and its sparse points.
+  EXPECT_EQ(store.entry(11).bytes, 4 * kImageBytes + 2 * sizeof(Eigen::Vector3d));
+  EXPECT_EQ(store.bytes(), 6 * kImageBytes + 2 * sizeof(Eigen::Vector3d));
+  EXPECT_EQ(store.entry(11).grayImage().channels, 1);
+  EXPECT_EQ(store.entry(11).grayImage().data, toGray(rgb.image).data);
+  EXPECT_EQ(&store.entry(3).grayImage(), &store.entry(3).keyframe.image);  // grey already: no copy
 }
 
 TEST(KeyframeStore, RejectsBadKeyframesWithClearMessages) {

@@ -15,32 +15,10 @@
 namespace amhmvs {
 namespace {
 
-constexpr double kWallZ = 5.0;  // the wall z = 5 (world), facing the cameras
-
-// Depth and normal of the wall z = kWallZ seen by cameras looking along +z.
-DepthMap wallDepth(const DepthProblem& problem) {
-  const PinholeCamera& camera = problem.reference_camera;
-  const double depth = kWallZ - cameraToWorld(camera).translation().z();
-  DepthMap map;
-  map.depth = ImageF(camera.width, camera.height, 1, static_cast<float>(depth));
-  map.normal = ImageF(camera.width, camera.height, 3, 0.0f);
-  for (int y = 0; y < camera.height; ++y)
-    for (int x = 0; x < camera.width; ++x) map.normal.at(x, y, 2) = -1.0f;
-  map.cost = ImageF(camera.width, camera.height, 1, 0.1f);
-  return map;
-}
-
-OnlineMapperOptions wallOptions() {
-  OnlineMapperOptions options;
-  options.sources.default_scene_depth = kWallZ;
-  options.sources.min_overlap = 0.3;
-  options.map.leaf_size = 0.05;
-  return options;
-}
-
-Keyframe keyframeAt(int64_t id, double x) {
-  return test::smallKeyframe(id, static_cast<double>(id), test::poseAt({x, 0, 0}), 3, 128);
-}
+using test::kWallZ;
+using test::keyframeAt;
+using test::wallDepth;
+using test::wallOptions;
 
 // Ids of the keyframes a result fused.
 std::vector<int64_t> fusedIds(const KeyframeResult& result) {

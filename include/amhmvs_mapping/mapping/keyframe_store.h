@@ -71,11 +71,15 @@ const char* keyframeStateName(KeyframeState state);
 struct StoredKeyframe {
   Keyframe keyframe;
   KeyframeState state = KeyframeState::kPending;
+  // The image as the estimator reads it (8-bit grey), converted once when the
+  // keyframe is added; empty when the keyframe's image is grey already.
+  ImageU8 gray_image;
+  const ImageU8& grayImage() const { return gray_image.empty() ? keyframe.image : gray_image; }
   std::vector<int64_t> sources;  // source keyframes chosen while pending
   DepthMap depth;                // empty until attachDepth()
   KeyframePoints points;         // dense points, camera frame; empty until attachPoints()
   uint64_t pose_revision = 0;    // incremented by each updatePose()
-  // Payload bytes counted against the budget: image + depth map images
+  // Payload bytes counted against the budget: image (and its grey copy) + depth map images
   // (depth, normal, cost) + sparse points + dense points.
   size_t bytes = 0;
 };

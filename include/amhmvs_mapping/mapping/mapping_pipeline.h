@@ -61,23 +61,9 @@ struct PipelineOptions {
   std::string validate() const;
 };
 
-// Wall-clock milliseconds of the stages of one result (0 where a stage did
-// not run). The estimate is the estimator's own time (CUDA events on the GPU).
-struct StageTimes {
-  double queue_wait_ms = 0;    // from push() to the start of processing (new keyframes)
-  double selection_ms = 0;     // source views
-  double depth_range_ms = 0;
-  double problem_ms = 0;       // building the depth problem (images, cameras)
-  double estimate_ms = 0;      // the estimator, wall clock
-  double fusion_ms = 0;        // consistency checks of the keyframes fused by this result
-  double map_ms = 0;           // voxel map updates
-  double total_ms = 0;         // the whole step for this result (without queue_wait_ms)
-};
-
 // One result of step(): a new keyframe, a late depth map or a refinement.
 struct PipelineOutput {
-  KeyframeResult result;
-  StageTimes times;
+  KeyframeResult result;  // result.times: the stages, queue wait included
 };
 
 // Counters since construction or the last reset (typed: the nodelet's
@@ -216,6 +202,7 @@ class MappingPipeline {
 
   mutable std::mutex stats_mutex_;
   PipelineStats stats_;
+  std::mutex report_mutex_;
   std::map<std::string, double> last_report_;  // kind -> steady seconds
 };
 

@@ -43,6 +43,7 @@
 // bounds and keeps their points, so they can still be re-posed).
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -94,6 +95,19 @@ struct FusedKeyframe {
   VoxelMapUpdate map_update;
 };
 
+// Wall-clock milliseconds of the stages of one result (0 where a stage did
+// not run).
+struct StageTimes {
+  double queue_wait_ms = 0;    // from MappingPipeline::push() to the start of processing
+  double selection_ms = 0;     // source views
+  double depth_range_ms = 0;
+  double problem_ms = 0;       // the depth problem (cameras, grey images)
+  double estimate_ms = 0;      // the estimator, wall clock (its own time: DepthMap::milliseconds)
+  double fusion_ms = 0;        // consistency checks of the keyframes fused by this result
+  double map_ms = 0;           // voxel map updates
+  double total_ms = 0;         // the whole call (without queue_wait_ms)
+};
+
 // What process() did with one keyframe.
 struct KeyframeResult {
   int64_t id = 0;
@@ -112,6 +126,7 @@ struct KeyframeResult {
   std::vector<int64_t> evicted;  // keyframes evicted from the store
   std::vector<int64_t> evicted_before_fusion;  // of those, the ones that waited for fusion
   size_t waiting_for_fusion = 0;  // keyframes waiting after this call
+  StageTimes times;
 };
 
 class OnlineMapper {
@@ -173,7 +188,9 @@ class OnlineMapper {
   void estimateAndFuse(int64_t id, KeyframeResult* result);
   // estimateAndFuse() for an earlier keyframe (late: its first depth map;
   // else a refinement), into a fresh result.
-  void estimateStored(int64_t id, SourceSelection selection, bool late, KeyframeResult* result);
+  // `start`: when the call began (its selection is timed from there).
+  void estimateStored(int64_t id, SourceSelection selection, bool late,
+                      std::chrono::steady_clock::time_point start, KeyframeResult* result);
   // What a keyframe's depth map was estimated with (for refine()).
   struct EstimateRecord {
     std::vector<int64_t> sources;

@@ -1,0 +1,446 @@
+#include "amhmvs_mapping/mapping/mapping_pipeline.h"
+
+#include <chrono>
+#include <sstream>
+
+#include "amhmvs_mapping/core/error.h"
+
+namespace amhmvs {
+namespace {
+
+double steadySeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::string keyframeName(int64_t id) { return "keyframe " + std::to_string(id); }
+
+}  // namespace
+
+const std::vector<PipelineStatField>& pipelineStatFields() {
+  // Names are the nodelet's diagnostics keys (README, rostests).
+  static const std::vector<PipelineStatField> fields = {
+      {"keyframes_received", &PipelineStats::keyframes_received},
+      {"dropped: queue_full", &PipelineStats::dropped_queue_full},
+      {"dropped: invalid_keyframe", &PipelineStats::dropped_invalid},
+      {"dropped: backend_error", &PipelineStats::dropped_backend_error},
+      {"dropped: processing_error", &PipelineStats::dropped_processing_error},
+      {"late_estimate_failed", &PipelineStats::late_estimate_failed},
+      {"refinement_estimate_failed", &PipelineStats::refinement_estimate_failed},
+      {"depth_maps", &PipelineStats::depth_maps},
+      {"late_depth_maps", &PipelineStats::late_depth_maps},
+      {"refined_depth_maps", &PipelineStats::refined_depth_maps},
+      {"keyframes_without_sources", &PipelineStats::keyframes_without_sources},
+      {"keyframes_fused", &PipelineStats::keyframes_fused},
+      {"keyframes_fused_again", &PipelineStats::keyframes_fused_again},
+      {"map_points_added", &PipelineStats::map_points_added},
+      {"map_points_skipped_invalid", &PipelineStats::map_points_skipped_invalid},
+      {"map_points_over_budget", &PipelineStats::map_points_over_budget},
+      {"map_points_outside_region", &PipelineStats::map_points_outside_region},
+      {"pose_updates_applied", &PipelineStats::pose_updates_applied},
+      {"pose_updates_not_stored", &PipelineStats::pose_updates_not_stored},
+      {"pose_updates_refused", &PipelineStats::bad_pose_updates},
+      {"cpu_fallbacks", &PipelineStats::cpu_fallbacks},
+      {"reconfigurations", &PipelineStats::reconfigurations},
+      {"reconfigurations_refused", &PipelineStats::bad_reconfigurations},
+      {"queued", &PipelineStats::queued},
+      {"stored_keyframes", &PipelineStats::stored_keyframes},
+      {"keyframes_evicted", &PipelineStats::keyframes_evicted},
+      {"keyframes_waiting_for_fusion", &PipelineStats::keyframes_waiting_for_fusion},
+      {"keyframes_evicted_before_fusion", &PipelineStats::keyframes_evicted_before_fusion},
+      {"keyframes_waiting_for_sources", &PipelineStats::keyframes_waiting_for_sources},
+      {"keyframes_evicted_without_depth", &PipelineStats::keyframes_evicted_without_depth},
+      {"map voxels", &PipelineStats::map_voxels},
+  };
+  return fields;
+}
+
+std::string PipelineOptions::validate() const {
+  std::ostringstream out;
+  const std::string mapper_problems = mapper.validate();
+  if (!mapper_problems.empty()) out << mapper_problems;
+  std::istringstream estimator_problems(estimator.validate());
+  for (std::string line; std::getline(estimator_problems, line);)
+    if (!line.empty()) out << "estimator: " << line << "\n";
+  if (queue_size < 1) out << "queue_size must be >= 1 (got " << queue_size << ")\n";
+  if (switch_to_cpu_after < 1) out << "switch_to_cpu_after must be >= 1 (got " << switch_to_cpu_after << ")\n";
+  if (!(report_period_s >= 0)) out << "report_period_s must be >= 0 (got " << report_period_s << ")\n";
+  return out.str();
+}
+
+MappingPipeline::MappingPipeline(const PipelineOptions& options, Log log) : options_(options), log_(std::move(log)) {
+  const std::string problems = options.validate();
+  if (!problems.empty()) throw InputError("mapping pipeline options:\n" + problems);
+  Backend backend = options.backend;
+  if (backend == Backend::kAuto) {
+    std::string description;
+    if (cudaBackendAvailable(&description)) {
+      backend = Backend::kCuda;
+    } else {
+      report(LogLevel::kWarn, "backend",
+             "no GPU found, using the CPU (" + description +
+                 "); the CPU needs a small max_image_size (e.g. 256..320) for online rates");
+      backend = Backend::kCpu;
+    }
+  }
+  try {
+    estimator_.reset(new DepthEstimator(options.estimator, backend));
+  } catch (const BackendError& e) {
+    report(LogLevel::kError, "backend", std::string(backendName(backend)) + " backend failed (" + e.what() +
+                                            "), using the CPU");
+    estimator_.reset(new DepthEstimator(options.estimator, Backend::kCpu));
+  }
+  backend_ = estimator_->backend();
+  report(LogLevel::kInfo, "backend", std::string("depth estimation backend: ") + backendName(backend_));
+  EstimateFunction fallback;
+  if (backend_ != Backend::kCpu) {
+    fallback = [this](const DepthProblem& problem) {
+      if (!cpu_estimator_) cpu_estimator_.reset(new DepthEstimator(options_.estimator, Backend::kCpu));
+      return cpu_estimator_->estimate(problem);
+    };
+  }
+  init([this](const DepthProblem& problem) { return estimator_->estimate(problem); }, fallback,
+       backendName(backend_));
+}
+
+MappingPipeline::MappingPipeline(const PipelineOptions& options, EstimateFunction primary, EstimateFunction fallback,
+                                 std::string backend_name, Log log)
+    : options_(options), log_(std::move(log)) {
+  const std::string problems = options.validate();
+  if (!problems.empty()) throw InputError("mapping pipeline options:\n" + problems);
+  init(std::move(primary), std::move(fallback), backend_name);
+}
+
+MappingPipeline::~MappingPipeline() = default;
+
+void MappingPipeline::init(EstimateFunction primary, EstimateFunction fallback, const std::string& backend_name) {
+  stats_.backend = backend_name;
+  // A failing GPU: the keyframe reruns on the CPU; after switch_to_cpu_after
+  // failures in a row every keyframe does. The CPU has no fallback.
+  fallback_.reset(new FallbackEstimator(std::move(primary), std::move(fallback), options_.switch_to_cpu_after,
+                                        [this, backend_name](const std::string& line) {
+                                          report(LogLevel::kError, "fallback", backend_name + " backend: " + line);
+                                          std::lock_guard<std::mutex> lock(stats_mutex_);
+                                          ++stats_.cpu_fallbacks;
+                                        }));
+  const std::string name = backend_name;
+  mapper_.reset(new OnlineMapper(options_.mapper, [this, name](const DepthProblem& problem) {
+    DepthMap map = (*fallback_)(problem);
+    if (fallback_->switched()) {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      stats_.backend = name + " failed, now cpu";
+    }
+    return map;
+  }));
+}
+
+void MappingPipeline::report(LogLevel level, const std::string& kind, const std::string& line) {
+  if (!log_) return;
+  if (level != LogLevel::kInfo && options_.report_period_s > 0) {
+    // Throttled per kind, so that a flood of one problem stays readable.
+    std::lock_guard<std::mutex> lock(report_mutex_);
+    const double now = steadySeconds();
+    const auto last = last_report_.find(kind);
+    if (last != last_report_.end() && now - last->second < options_.report_period_s) return;
+    last_report_[kind] = now;
+  }
+  log_(level, line);
+}
+
+size_t MappingPipeline::push(Keyframe keyframe) {
+  size_t dropped = 0;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    while (queue_.size() >= options_.queue_size) {
+      queue_.erase(queue_.begin());
+      ++dropped;
+    }
+    queue_.push_back({std::move(keyframe), steadySeconds()});
+  }
+  uint64_t total = 0;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.keyframes_received;
+    total = stats_.dropped_queue_full += dropped;
+    stats_.idle = false;
+  }
+  queue_cv_.notify_all();
+  if (dropped > 0) {
+    report(LogLevel::kWarn, "queue_full",
+           "input queue full (" + std::to_string(options_.queue_size) + " keyframes): dropped the oldest, " +
+               std::to_string(total) + " dropped so far; estimation is slower than the keyframe rate: lower "
+               "max_image_size or estimator iterations, raise the keyframe distance, or use the GPU");
+  }
+  return dropped;
+}
+
+void MappingPipeline::pushPoseUpdate(int64_t id, const Eigen::Isometry3d& camera_to_world) {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    pose_updates_[id] = camera_to_world;
+  }
+  queue_cv_.notify_all();
+}
+
+size_t MappingPipeline::requestReset() {
+  size_t discarded;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    discarded = queue_.size();
+    queue_.clear();
+    pose_updates_.clear();
+    reset_requested_ = true;
+  }
+  {
+    // Counters restart at once (diagnostics show the reset immediately); the
+    // worker forgets the keyframes and the map at its next step.
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    PipelineStats fresh;
+    fresh.backend = stats_.backend;
+    stats_ = fresh;
+  }
+  queue_cv_.notify_all();
+  return discarded;
+}
+
+void MappingPipeline::setOptions(const OnlineMapperOptions& mapper, const PatchMatchOptions& estimator) {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    pending_options_.reset(new std::pair<OnlineMapperOptions, PatchMatchOptions>(mapper, estimator));
+  }
+  queue_cv_.notify_all();
+}
+
+bool MappingPipeline::waitForWork(double timeout_s) {
+  std::unique_lock<std::mutex> lock(queue_mutex_);
+  const auto pending = [this] {
+    return woken_ || !queue_.empty() || !pose_updates_.empty() || pending_options_ || reset_requested_;
+  };
+  queue_cv_.wait_for(lock, std::chrono::duration<double>(timeout_s), pending);
+  const bool work = !queue_.empty() || !pose_updates_.empty() || pending_options_ || reset_requested_;
+  woken_ = false;
+  return work;
+}
+
+void MappingPipeline::wake() {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    woken_ = true;
+  }
+  queue_cv_.notify_all();
+}
+
+void MappingPipeline::applyPending() {
+  std::map<int64_t, Eigen::Isometry3d> updates;
+  std::unique_ptr<std::pair<OnlineMapperOptions, PatchMatchOptions>> next;
+  bool reset = false;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    updates.swap(pose_updates_);
+    next.swap(pending_options_);
+    std::swap(reset, reset_requested_);
+  }
+  std::lock_guard<std::mutex> lock(mapper_mutex_);
+  if (reset) {
+    mapper_->reset();
+    if (estimator_) estimator_->forgetAll();  // keyframe ids may be reused
+    std::lock_guard<std::mutex> stats(stats_mutex_);
+    PipelineStats fresh;
+    fresh.backend = stats_.backend;
+    stats_ = fresh;
+  }
+  if (next) {
+    try {
+      const std::string problems = next->second.validate();
+      if (!problems.empty()) throw InputError("estimator options:\n" + problems);
+      mapper_->setOptions(next->first);  // a new voxel size rebuilds the map
+      if (estimator_) {  // an injected estimator (tests) stays as it is
+        estimator_.reset(new DepthEstimator(next->second, estimator_->backend()));
+        cpu_estimator_.reset();
+      }
+      options_.mapper = mapper_->options();
+      options_.estimator = next->second;
+      std::lock_guard<std::mutex> stats(stats_mutex_);
+      ++stats_.reconfigurations;
+    } catch (const std::exception& e) {
+      {
+        std::lock_guard<std::mutex> stats(stats_mutex_);
+        ++stats_.bad_reconfigurations;
+      }
+      report(LogLevel::kError, "reconfiguration", std::string("new options refused, the old ones stay: ") + e.what());
+    }
+  }
+  uint64_t applied = 0, not_stored = 0, refused = 0;
+  for (const auto& update : updates) {
+    try {
+      if (mapper_->updatePose(update.first, update.second))
+        ++applied;
+      else
+        ++not_stored;  // evicted, reset, or not yet processed
+    } catch (const InputError& e) {
+      ++refused;
+      report(LogLevel::kError, "pose_update", e.what());
+    }
+  }
+  std::lock_guard<std::mutex> stats(stats_mutex_);
+  stats_.pose_updates_applied += applied;
+  stats_.pose_updates_not_stored += not_stored;
+  stats_.bad_pose_updates += refused;
+}
+
+bool MappingPipeline::run(const char* what, int64_t id, const std::function<bool(KeyframeResult*)>& call,
+                          std::vector<PipelineOutput>* outputs, double queue_wait_ms) {
+  PipelineOutput output;
+  output.result.id = id;
+  const bool is_new = std::string(what) == "keyframe";
+  uint64_t PipelineStats::*failure = nullptr;
+  std::string reason;
+  try {
+    if (!call(&output.result)) return false;
+  } catch (const InputError& e) {
+    failure = is_new ? &PipelineStats::dropped_invalid : nullptr;
+    reason = e.what();
+  } catch (const BackendError& e) {
+    failure = is_new ? &PipelineStats::dropped_backend_error : nullptr;
+    reason = e.what();
+  } catch (const std::exception& e) {
+    failure = is_new ? &PipelineStats::dropped_processing_error : nullptr;
+    reason = e.what();
+  }
+  if (!reason.empty()) {
+    // A new keyframe is dropped; a late one stays a source only; a refined
+    // one keeps its depth map.
+    if (!failure)
+      failure = output.result.late || std::string(what) == "late" ? &PipelineStats::late_estimate_failed
+                                                                   : &PipelineStats::refinement_estimate_failed;
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++(stats_.*failure);
+    }
+    report(LogLevel::kError, what,
+           (is_new ? "dropped " + keyframeName(output.result.id)
+                   : std::string(what) + " depth map of " + keyframeName(output.result.id) + " failed") +
+               ": " + reason);
+    return true;  // work was attempted
+  }
+  output.result.times.queue_wait_ms = queue_wait_ms;
+  // Keyframe ids are the estimator's image keys: an evicted keyframe's image
+  // leaves the GPU's resident pool too.
+  if (estimator_) {
+    for (int64_t id : output.result.evicted) estimator_->forget(id);
+  }
+  account(output);
+  outputs->push_back(std::move(output));
+  return true;
+}
+
+void MappingPipeline::account(const PipelineOutput& output) {
+  const KeyframeResult& result = output.result;
+  if (!result.has_depth) {
+    report(LogLevel::kInfo, "no_sources",
+           keyframeName(result.id) + ": no source view yet (" + result.selection.reason +
+               "): stored as a source; its depth map follows once later keyframes qualify");
+  }
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  if (!result.has_depth) {
+    ++stats_.keyframes_without_sources;
+  } else {
+    if (!result.refined) ++stats_.depth_maps;
+    if (result.late) ++stats_.late_depth_maps;
+    if (result.refined) ++stats_.refined_depth_maps;
+    stats_.last_estimate_ms = result.depth.milliseconds;
+    stats_.gpu_memory_bytes = result.depth.gpu_memory_bytes;
+  }
+  stats_.last_total_ms = result.times.total_ms;
+  for (const FusedKeyframe& fused : result.fused) {
+    ++(fused.again ? stats_.keyframes_fused_again : stats_.keyframes_fused);
+    stats_.map_points_added += fused.map_update.added_points;
+    stats_.map_points_skipped_invalid += fused.map_update.skipped_invalid;
+    stats_.map_points_over_budget += fused.map_update.dropped_over_budget;
+    stats_.map_points_outside_region += fused.map_update.outside_region;
+  }
+}
+
+std::vector<PipelineOutput> MappingPipeline::step() {
+  applyPending();
+  std::vector<PipelineOutput> outputs;
+  Queued next;
+  bool have_keyframe = false;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (!queue_.empty()) {
+      next = std::move(queue_.front());
+      queue_.erase(queue_.begin());
+      have_keyframe = true;
+    }
+  }
+  bool worked = false;
+  std::lock_guard<std::mutex> lock(mapper_mutex_);
+  if (have_keyframe) {
+    const double wait_ms = 1000 * (steadySeconds() - next.pushed_at);
+    const int64_t id = next.keyframe.id;
+    worked |= run("keyframe", id,
+                  [&](KeyframeResult* result) {
+                    *result = mapper_->process(std::move(next.keyframe));
+                    return true;
+                  },
+                  &outputs, wait_ms);
+  }
+  // At most one late depth map per step; refinements only when no keyframe
+  // waits and nothing else was late: new keyframes keep their rate.
+  bool late_work = false;
+  if (options_.late_depth_maps)
+    late_work = run("late", -1, [&](KeyframeResult* result) { return mapper_->estimateLate(result); }, &outputs, 0);
+  bool queue_empty;
+  {
+    std::lock_guard<std::mutex> queue_lock(queue_mutex_);
+    queue_empty = queue_.empty();
+  }
+  if (!late_work && queue_empty)
+    late_work = run("refinement", -1, [&](KeyframeResult* result) { return mapper_->refine(result); }, &outputs, 0);
+  worked |= late_work;
+
+  std::lock_guard<std::mutex> stats(stats_mutex_);
+  stats_.stored_keyframes = mapper_->store().size();
+  stats_.keyframes_evicted = mapper_->store().evictedCount();
+  stats_.keyframes_waiting_for_fusion = mapper_->waitingForFusion().size();
+  stats_.keyframes_evicted_before_fusion = mapper_->evictedBeforeFusion();
+  stats_.keyframes_waiting_for_sources = mapper_->waitingForSources().size();
+  stats_.keyframes_evicted_without_depth = mapper_->evictedWithoutDepth();
+  stats_.map_voxels = mapper_->map().voxelCount();
+  stats_.map_revision = mapper_->mapRevision();
+  {
+    std::lock_guard<std::mutex> queue_lock(queue_mutex_);
+    // Idle: nothing was done and nothing waits (every output of the input so far is out).
+    stats_.idle = !worked && queue_.empty();
+  }
+  return outputs;
+}
+
+void MappingPipeline::runUntilIdle(const std::function<void(const PipelineOutput&)>& on_output) {
+  while (true) {
+    const std::vector<PipelineOutput> outputs = step();
+    for (const PipelineOutput& output : outputs)
+      if (on_output) on_output(output);
+    if (stats().idle) return;
+  }
+}
+
+PipelineStats MappingPipeline::stats() const {
+  PipelineStats copy;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    copy = stats_;
+  }
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  copy.queued = queue_.size();
+  return copy;
+}
+
+void MappingPipeline::withMapper(const std::function<void(const OnlineMapper&)>& read) const {
+  std::lock_guard<std::mutex> lock(mapper_mutex_);
+  read(*mapper_);
+}
+
+Backend MappingPipeline::backend() const { return backend_; }
+
+}  // namespace amhmvs

@@ -1,0 +1,267 @@
+// MappingPipeline (mapping_pipeline.h): queue, scheduling of new / late /
+// refined depth maps, failures, pose updates, reset and typed statistics,
+// with an injected estimator that returns the exact depth of a wall.
+#include <gtest/gtest.h>
+
+#include <set>
+#include <string>
+#include <vector>
+
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mapping/mapping_pipeline.h"
+#include "mapping_test_helpers.h"
+
+namespace amhmvs {
+namespace {
+
+using test::keyframeAt;
+using test::wallDepth;
+
+PipelineOptions wallPipeline(size_t queue_size = 100) {
+  PipelineOptions options;
+  options.mapper = test::wallOptions();
+  options.queue_size = queue_size;
+  options.report_period_s = 0;  // every line (the tests read them)
+  return options;
+}
+
+// A pipeline on the wall estimator that records its log lines.
+struct WallPipeline {
+  explicit WallPipeline(const PipelineOptions& options, EstimateFunction primary = wallDepth,
+                        EstimateFunction fallback = nullptr)
+      : pipeline(options, std::move(primary), std::move(fallback), "injected",
+                 [this](MappingPipeline::LogLevel, const std::string& line) { log.push_back(line); }) {}
+  bool logged(const std::string& part) const {
+    for (const std::string& line : log)
+      if (line.find(part) != std::string::npos) return true;
+    return false;
+  }
+  std::vector<std::string> log;
+  MappingPipeline pipeline;
+};
+
+// "new 1", "late 0", "refined 0": what each output of the steps was.
+std::vector<std::string> describe(const std::vector<PipelineOutput>& outputs) {
+  std::vector<std::string> out;
+  for (const PipelineOutput& output : outputs) {
+    const KeyframeResult& r = output.result;
+    out.push_back(std::string(r.late ? "late " : r.refined ? "refined " : "new ") + std::to_string(r.id));
+  }
+  return out;
+}
+
+TEST(MappingPipeline, FullQueueDropsTheOldestAndSaysWhatToChange) {
+  WallPipeline wall(wallPipeline(2));
+  EXPECT_EQ(wall.pipeline.push(keyframeAt(0, 0.0)), 0u);
+  EXPECT_EQ(wall.pipeline.push(keyframeAt(1, 0.5)), 0u);
+  EXPECT_EQ(wall.pipeline.push(keyframeAt(2, 1.0)), 1u);  // keyframe 0 goes
+  const PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.keyframes_received, 3u);
+  EXPECT_EQ(stats.dropped_queue_full, 1u);
+  EXPECT_EQ(stats.queued, 2u);
+  EXPECT_FALSE(stats.idle);
+  EXPECT_TRUE(wall.logged("input queue full (2 keyframes): dropped the oldest, 1 dropped so far"));
+  EXPECT_TRUE(wall.logged("lower max_image_size"));
+  // The newest are processed, in order.
+  EXPECT_EQ(describe(wall.pipeline.step()), std::vector<std::string>{"new 1"});
+  EXPECT_EQ(describe(wall.pipeline.step()), (std::vector<std::string>{"new 2", "late 1"}));
+}
+
+TEST(MappingPipeline, SchedulesNewKeyframesFirstThenLateDepthMapsThenRefinements) {
+  PipelineOptions options = wallPipeline();
+  options.mapper.refinement.min_score_gain = 1.01;
+  WallPipeline wall(options);
+  for (int i = 0; i < 3; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
+  // Step 1: keyframe 0 has no source yet.
+  std::vector<PipelineOutput> outputs = wall.pipeline.step();
+  ASSERT_EQ(describe(outputs), std::vector<std::string>{"new 0"});
+  EXPECT_FALSE(outputs[0].result.has_depth);
+  EXPECT_GE(outputs[0].result.times.queue_wait_ms, 0.0);
+  // Step 2: keyframe 1 (source 0), then the late depth map of 0 (source 1).
+  outputs = wall.pipeline.step();
+  ASSERT_EQ(describe(outputs), (std::vector<std::string>{"new 1", "late 0"}));
+  EXPECT_EQ(outputs[1].result.selection.source_ids, std::vector<int64_t>{1});
+  // Step 3: keyframe 2; nothing late; keyframe 1 could be refined (2 is a
+  // better partner now) but only once the queue is empty: it is, so it is.
+  outputs = wall.pipeline.step();
+  ASSERT_GE(outputs.size(), 1u);
+  EXPECT_EQ(describe(outputs)[0], "new 2");
+  EXPECT_TRUE(outputs[0].result.fused_now);
+  EXPECT_GT(outputs[0].result.times.estimate_ms, 0.0);
+  EXPECT_GE(outputs[0].result.times.total_ms, outputs[0].result.times.estimate_ms);
+  wall.pipeline.runUntilIdle(nullptr);
+  const PipelineStats stats = wall.pipeline.stats();
+  EXPECT_TRUE(stats.idle);
+  EXPECT_EQ(stats.depth_maps, 3u);  // the late one included
+  EXPECT_EQ(stats.late_depth_maps, 1u);
+  EXPECT_EQ(stats.keyframes_without_sources, 1u);
+  EXPECT_EQ(stats.keyframes_fused, 3u);
+  EXPECT_EQ(stats.keyframes_fused_again, stats.refined_depth_maps);
+  EXPECT_EQ(stats.stored_keyframes, 3u);
+  EXPECT_GT(stats.map_voxels, 0u);
+  EXPECT_EQ(stats.droppedTotal(), 0u);
+}
+
+TEST(MappingPipeline, RefinementWaitsWhileKeyframesAreQueued) {
+  PipelineOptions options = wallPipeline();
+  options.mapper.refinement.min_score_gain = 1.01;
+  WallPipeline wall(options);
+  for (int i = 0; i < 6; ++i) wall.pipeline.push(keyframeAt(i, 0.25 * i));
+  std::vector<std::string> order;
+  while (true) {
+    const std::vector<PipelineOutput> outputs = wall.pipeline.step();
+    if (outputs.empty()) break;
+    for (const std::string& what : describe(outputs)) order.push_back(what);
+  }
+  // Every new keyframe comes before the first refinement.
+  size_t last_new = 0, first_refined = order.size();
+  for (size_t i = 0; i < order.size(); ++i) {
+    if (order[i].rfind("new", 0) == 0) last_new = i;
+    if (order[i].rfind("refined", 0) == 0 && first_refined == order.size()) first_refined = i;
+  }
+  ASSERT_LT(first_refined, order.size()) << "no refinement happened";
+  EXPECT_LT(last_new, first_refined);
+}
+
+TEST(MappingPipeline, FailingGpuFallsBackToTheCpuAndIsCounted) {
+  int primary_calls = 0;
+  WallPipeline wall(wallPipeline(), [&](const DepthProblem&) -> DepthMap {
+    ++primary_calls;
+    throw BackendError("injected: out of memory");
+  }, wallDepth);
+  for (int i = 0; i < 5; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
+  wall.pipeline.runUntilIdle(nullptr);
+  const PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(primary_calls, 3);  // switch_to_cpu_after
+  EXPECT_GE(stats.cpu_fallbacks, 3u);
+  EXPECT_EQ(stats.backend, "injected failed, now cpu");
+  EXPECT_EQ(stats.depth_maps, 5u);
+  EXPECT_EQ(stats.dropped_backend_error, 0u);
+  EXPECT_TRUE(wall.logged("out of memory"));
+}
+
+TEST(MappingPipeline, EstimateFailingEverywhereDropsTheKeyframeAndGoesOn) {
+  int calls = 0;
+  WallPipeline wall(wallPipeline(), [&](const DepthProblem& problem) {
+    if (++calls == 1) throw BackendError("injected: device lost");
+    return wallDepth(problem);
+  });
+  for (int i = 0; i < 3; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
+  wall.pipeline.runUntilIdle(nullptr);
+  const PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.dropped_backend_error, 1u);  // keyframe 1
+  EXPECT_TRUE(wall.logged("dropped keyframe 1: injected: device lost"));
+  EXPECT_GE(stats.depth_maps, 2u);
+  wall.pipeline.withMapper([](const OnlineMapper& mapper) { EXPECT_FALSE(mapper.store().contains(1)); });
+}
+
+TEST(MappingPipeline, InvalidKeyframeIsDroppedWithTheReason) {
+  WallPipeline wall(wallPipeline());
+  Keyframe bad = keyframeAt(0, 0.0);
+  bad.camera.fx = -1;
+  wall.pipeline.push(std::move(bad));
+  EXPECT_TRUE(wall.pipeline.step().empty());
+  EXPECT_EQ(wall.pipeline.stats().dropped_invalid, 1u);
+  EXPECT_TRUE(wall.logged("keyframe 0"));
+  EXPECT_TRUE(wall.logged("focal"));
+}
+
+TEST(MappingPipeline, PoseUpdatesAreAppliedAtTheNextStepAndCounted) {
+  WallPipeline wall(wallPipeline());
+  for (int i = 0; i < 3; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
+  wall.pipeline.runUntilIdle(nullptr);
+  wall.pipeline.pushPoseUpdate(0, test::poseAt({0, 1, 0}));   // stored: moved up 1 m
+  wall.pipeline.pushPoseUpdate(42, test::poseAt({0, 0, 0}));  // never seen
+  Eigen::Isometry3d not_rigid = test::poseAt({0, 0, 0});
+  not_rigid.linear() *= 2;
+  wall.pipeline.pushPoseUpdate(1, not_rigid);
+  wall.pipeline.step();
+  const PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.pose_updates_applied, 1u);
+  EXPECT_EQ(stats.pose_updates_not_stored, 1u);
+  EXPECT_EQ(stats.bad_pose_updates, 1u);
+  wall.pipeline.withMapper([](const OnlineMapper& mapper) {
+    EXPECT_NEAR(mapper.store().keyframe(0).cameraToWorld().translation().y(), 1.0, 1e-12);
+  });
+}
+
+TEST(MappingPipeline, ResetClearsCountersAtOnceAndTheMapAtTheNextStep) {
+  WallPipeline wall(wallPipeline());
+  for (int i = 0; i < 3; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
+  wall.pipeline.runUntilIdle(nullptr);
+  ASSERT_GT(wall.pipeline.stats().map_voxels, 0u);
+  wall.pipeline.push(keyframeAt(3, 1.5));
+  EXPECT_EQ(wall.pipeline.requestReset(), 1u);  // the queued keyframe
+  PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.depth_maps, 0u);
+  EXPECT_EQ(stats.keyframes_received, 0u);
+  EXPECT_EQ(stats.queued, 0u);
+  EXPECT_EQ(stats.backend, "injected");
+  wall.pipeline.step();
+  stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.map_voxels, 0u);
+  EXPECT_EQ(stats.stored_keyframes, 0u);
+  // Ids may start again after a reset.
+  for (int i = 0; i < 3; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
+  wall.pipeline.runUntilIdle(nullptr);
+  EXPECT_EQ(wall.pipeline.stats().depth_maps, 3u);
+}
+
+TEST(MappingPipeline, OptionsChangeAtTheNextStepAndBadOnesAreRefused) {
+  WallPipeline wall(wallPipeline());
+  for (int i = 0; i < 3; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
+  wall.pipeline.runUntilIdle(nullptr);
+  const uint64_t fine_voxels = wall.pipeline.stats().map_voxels;
+  OnlineMapperOptions coarse = wall.pipeline.options().mapper;
+  coarse.map.leaf_size = 0.5;
+  wall.pipeline.setOptions(coarse, PatchMatchOptions());
+  wall.pipeline.step();
+  EXPECT_LT(wall.pipeline.stats().map_voxels, fine_voxels);
+  EXPECT_EQ(wall.pipeline.stats().reconfigurations, 1u);
+  OnlineMapperOptions bad = coarse;
+  bad.map.leaf_size = -1;
+  wall.pipeline.setOptions(bad, PatchMatchOptions());
+  wall.pipeline.step();
+  EXPECT_EQ(wall.pipeline.stats().bad_reconfigurations, 1u);
+  EXPECT_EQ(wall.pipeline.options().mapper.map.leaf_size, 0.5);
+  EXPECT_TRUE(wall.logged("new options refused"));
+}
+
+TEST(MappingPipeline, InvalidOptionsAreRefusedWithEveryProblem) {
+  PipelineOptions options = wallPipeline(0);
+  options.switch_to_cpu_after = 0;
+  try {
+    MappingPipeline pipeline(options, wallDepth, nullptr, "injected");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("queue_size must be >= 1"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("switch_to_cpu_after"), std::string::npos) << e.what();
+  }
+}
+
+TEST(MappingPipeline, StatFieldsHaveUniqueNamesAndReadTheirCounters) {
+  std::set<std::string> names;
+  PipelineStats stats;
+  uint64_t value = 1;
+  for (const PipelineStatField& field : pipelineStatFields()) {
+    EXPECT_TRUE(names.insert(field.name).second) << field.name;
+    stats.*field.value = value++;
+  }
+  EXPECT_EQ(stats.keyframes_received, 1u);
+  EXPECT_EQ(stats.dropped_queue_full, 2u);
+}
+
+TEST(MappingPipeline, CpuBackendIsChosenWithAClearLineWhenThereIsNoGpu) {
+  std::string gpu;
+  if (cudaBackendAvailable(&gpu)) GTEST_SKIP() << "a GPU is present: " << gpu;
+  std::vector<std::string> log;
+  PipelineOptions options = wallPipeline();
+  MappingPipeline pipeline(options, [&](MappingPipeline::LogLevel, const std::string& line) { log.push_back(line); });
+  EXPECT_EQ(pipeline.backend(), Backend::kCpu);
+  ASSERT_FALSE(log.empty());
+  EXPECT_NE(log[0].find("no GPU found"), std::string::npos) << log[0];
+  EXPECT_NE(log[0].find("using the CPU"), std::string::npos) << log[0];
+}
+
+}  // namespace
+}  // namespace amhmvs
