@@ -83,7 +83,7 @@ MappingPipeline::MappingPipeline(const PipelineOptions& options, Log log) : opti
     }
   }
   try {
-    estimator_.reset(new DepthEstimator(options.estimator, backend));
+    estimator_.reset(new DepthEstimator(options.estimator, backend, options.resources));
   } catch (const BackendError& e) {
     report(LogLevel::kError, "backend", std::string(backendName(backend)) + " backend failed (" + e.what() +
                                             "), using the CPU");
@@ -254,7 +254,7 @@ void MappingPipeline::applyPending() {
       if (!problems.empty()) throw InputError("estimator options:\n" + problems);
       mapper_->setOptions(next->first);  // a new voxel size rebuilds the map
       if (estimator_) {  // an injected estimator (tests) stays as it is
-        estimator_.reset(new DepthEstimator(next->second, estimator_->backend()));
+        estimator_.reset(new DepthEstimator(next->second, estimator_->backend(), options_.resources));
         cpu_estimator_.reset();
       }
       options_.mapper = mapper_->options();

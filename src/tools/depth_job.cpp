@@ -9,6 +9,7 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
+#include "amhmvs_mapping/io/background_writer.h"
 #include "amhmvs_mapping/io/colmap_model.h"
 #include "amhmvs_mapping/io/colormap.h"
 #include "amhmvs_mapping/io/image_io.h"
@@ -75,8 +76,8 @@ void maskByCost(DepthMap* map, float max_cost) {
   }
 }
 
-void writeDepthOutputs(const std::string& output_dir, int view_id, const DepthProblem& problem,
-                       const DepthMap& map) {
+void writeDepthOutputs(const std::string& output_dir, int view_id, const PinholeCamera& camera,
+                       double depth_min, double depth_max, const DepthMap& map) {
   const std::string dir = output_dir + "/" + viewFolderName(view_id);
   makeDirectories(dir);
   writePfm(dir + "/depth.pfm", map.depth);
@@ -84,14 +85,13 @@ void writeDepthOutputs(const std::string& output_dir, int view_id, const DepthPr
   writePfm(dir + "/cost.pfm", map.cost);
   // Colour scale from the map's own robust range, else the problem's range
   // (a map with no valid depth at all is shown black).
-  std::pair<float, float> range(static_cast<float>(problem.depth_min),
-                                static_cast<float>(problem.depth_max));
+  std::pair<float, float> range(static_cast<float>(depth_min), static_cast<float>(depth_max));
   try {
     range = robustRange(map.depth);
   } catch (const InputError&) {
   }
   writePng(dir + "/depth.png", colorizeDepth(map.depth, range.first, range.second));
-  writeMvsnetCam(dir + "/cam.txt", problem.reference_camera, problem.depth_min, problem.depth_max);
+  writeMvsnetCam(dir + "/cam.txt", camera, depth_min, depth_max);
 }
 
 int runDepthJob(const std::string& input_dir, const std::string& output_dir,
@@ -106,7 +106,7 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
     }
   }
   if (ids.empty()) throw InputError(input_dir + ": no view has source views");
-  const DepthEstimator estimator(options.patchmatch, options.backend);
+  DepthEstimator estimator(options.patchmatch, options.backend);
   if (!options.quiet) {
     std::string gpu;
     cudaBackendAvailable(&gpu);
@@ -119,12 +119,17 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
   }
   int written = 0;
   AccuracyCounts pooled;
+  // Each image is read once and, on the GPU, uploaded once (view ids are the
+  // image keys); an image the cache drops leaves the device too.
+  SceneImageCache images(scene, options.problem);
+  images.onDrop([&estimator](int64_t view_id) { estimator.forget(view_id); });
+  // Encoding and writing overlap the next estimate; two maps in the queue
+  // bound the memory (x1: 25 MB per map).
+  BackgroundWriter writer(2);
   for (size_t i = 0; i < ids.size(); ++i) {
-    const OwnedDepthProblem owned = makeDepthProblem(scene, ids[i], options.problem);
-    const DepthProblem& problem = owned.problem;
+    const DepthProblem problem = images.makeProblem(ids[i]);
     DepthMap map = estimator.estimate(problem);
     if (options.max_cost > 0) maskByCost(&map, options.max_cost);
-    if (!output_dir.empty()) writeDepthOutputs(output_dir, ids[i], problem, map);
     if (on_result) on_result(ids[i], problem, map);
     ++written;
     std::string accuracy;
@@ -142,7 +147,14 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
                    problem.reference_camera.height, problem.source_cameras.size(), problem.depth_min,
                    problem.depth_max, map.milliseconds, accuracy.c_str());
     }
+    if (!output_dir.empty()) {
+      writer.submit([&output_dir, id = ids[i], camera = problem.reference_camera, depth_min = problem.depth_min,
+                     depth_max = problem.depth_max, map = std::move(map)] {
+        writeDepthOutputs(output_dir, id, camera, depth_min, depth_max, map);
+      });
+    }
   }
+  writer.finish();  // a write error (naming its file) is thrown here
   if (!options.ground_truth_dir.empty()) {
     std::fprintf(stderr, "depth accuracy over %d maps (%ld pixels): within 1/2/5 %%: %s %%\n",
                  written, pooled.total, pooled.percentages().c_str());
