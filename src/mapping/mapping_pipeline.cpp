@@ -443,4 +443,9 @@ void MappingPipeline::withMapper(const std::function<void(const OnlineMapper&)>&
 
 Backend MappingPipeline::backend() const { return backend_; }
 
+DeviceCacheStats MappingPipeline::deviceCacheStats() const {
+  std::lock_guard<std::mutex> lock(mapper_mutex_);  // estimator_ is replaced under it
+  return estimator_ ? estimator_->deviceCacheStats() : DeviceCacheStats();
+}
+
 }  // namespace amhmvs

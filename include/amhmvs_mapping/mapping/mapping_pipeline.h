@@ -170,6 +170,8 @@ class MappingPipeline {
   // Read access to the mapper (map, store) under the pipeline's lock.
   void withMapper(const std::function<void(const OnlineMapper&)>& read) const;
   Backend backend() const;
+  // The GPU estimator's resident keyframe images (zeros on the CPU).
+  DeviceCacheStats deviceCacheStats() const;
   const PipelineOptions& options() const { return options_; }
 
  private:
