@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/mapping/fallback_estimator.h"
