@@ -5,8 +5,9 @@
 
 namespace amhmvs {
 
-BackgroundWriter::BackgroundWriter(size_t max_queued)
-    : max_queued_(std::max<size_t>(1, max_queued)), worker_([this] { run(); }) {}
+BackgroundWriter::BackgroundWriter(size_t max_queued, int threads) : max_queued_(std::max<size_t>(1, max_queued)) {
+  for (int i = 0; i < std::max(1, threads); ++i) workers_.emplace_back([this] { run(); });
+}
 
 BackgroundWriter::~BackgroundWriter() {
   {
@@ -14,7 +15,7 @@ BackgroundWriter::~BackgroundWriter() {
     stopping_ = true;
   }
   changed_.notify_all();
-  worker_.join();
+  for (std::thread& worker : workers_) worker.join();
 }
 
 void BackgroundWriter::submit(std::function<void()> job) {
@@ -27,7 +28,7 @@ void BackgroundWriter::submit(std::function<void()> job) {
 
 void BackgroundWriter::finish() {
   std::unique_lock<std::mutex> lock(mutex_);
-  changed_.wait(lock, [this] { return (jobs_.empty() && !busy_) || failure_; });
+  changed_.wait(lock, [this] { return (jobs_.empty() && running_ == 0) || failure_; });
   if (failure_) rethrowFailure();
 }
 
@@ -44,7 +45,7 @@ void BackgroundWriter::run() {
     std::function<void()> job = std::move(jobs_.front());
     jobs_.pop_front();
     if (failure_) continue;  // after a failure the rest is skipped
-    busy_ = true;
+    ++running_;
     changed_.notify_all();  // room in the queue
     lock.unlock();
     std::exception_ptr error;
@@ -55,7 +56,7 @@ void BackgroundWriter::run() {
     }
     job = nullptr;  // the job's data (a depth map) is freed before the lock is taken
     lock.lock();
-    busy_ = false;
+    --running_;
     if (error && !failure_) failure_ = error;
     changed_.notify_all();
   }

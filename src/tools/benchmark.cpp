@@ -7,8 +7,8 @@
 // count (both columns equal).
 //
 // usage: amhmvs_benchmark [DATA_DIR] [--out FILE] [--runs N] [--cpu-threads N] [--quick]
-//                         [--only SCENE]   (fountain_x0.25 ... fountain_x1, synthetic,
-//                                           scaling, cpu, fusion, pipeline, replay)
+//                         [--only SCENE[,SCENE...]]  (fountain_x0.25 ... fountain_x1,
+//                                           synthetic, scaling, cpu, fusion, pipeline, replay)
 //                         [--replay N]     keyframes of the memory replay (10000)
 //
 // Online pipeline tables (MappingPipeline, GPU when usable):
@@ -203,6 +203,7 @@ std::string fusionTable(int runs) {
     std::snprintf(line, sizeof(line), "| %d | %.2f | %.2f | %zu |\n", sources, median(times),
                   *std::min_element(times.begin(), times.end()), points);
     out << line;
+    std::fprintf(stderr, "%s", line);  // progress: visible if the run is cut short
   }
   return out.str();
 }
@@ -215,13 +216,14 @@ PipelineOptions pipelineOptions(int sources) {
   return options;
 }
 
-// The online pipeline on a 640x480 room sequence: one keyframe pushed and
-// stepped until idle at a time (sustained, serial: what one GPU does).
+// The online pipeline on a 640x480 room sequence: push one keyframe, one
+// step() (sustained camera-rate input, serial: what one GPU does).
 std::string pipelineTable(int keyframe_count) {
   std::ostringstream out;
   out << "\n## Online pipeline (MappingPipeline), 640x480 room sequence, " << keyframe_count
       << " keyframes, 6 iterations\n\n"
-      << "Wall clock per keyframe, push() to the end of its step()s; stages are medians over the keyframes "
+      << "Wall clock per keyframe, push() to the end of its step() (one step per keyframe: refinements, which only "
+         "run when the queue is empty, do not); stages are medians over the keyframes "
          "with a depth map (estimate: the estimator's wall time; fusion and map: the fusions and map updates "
          "this keyframe's step did).\n\n"
       << "| sources | backend | keyframes/s | median total ms | selection | depth range | problem | estimate "
@@ -237,12 +239,9 @@ std::string pipelineTable(int keyframe_count) {
       pipeline.push(keyframe);
       double fused = 0, mapped = 0;
       const StageTimes* times = nullptr;
-      std::vector<PipelineOutput> outputs;
-      for (;;) {
-        std::vector<PipelineOutput> step = pipeline.step();
-        if (step.empty()) break;
-        for (PipelineOutput& output : step) outputs.push_back(std::move(output));
-      }
+      // One step per keyframe, as a camera-rate stream gets: it processes the
+      // new keyframe (and a late one if due); refinements wait for idle time.
+      const std::vector<PipelineOutput> outputs = pipeline.step();
       for (const PipelineOutput& output : outputs) {
         fused += output.result.times.fusion_ms;
         mapped += output.result.times.map_ms;
@@ -272,6 +271,7 @@ std::string pipelineTable(int keyframe_count) {
                   median(problem), median(estimate), median(own), median(fusion), median(map), median(rest),
                   cacheSummary(pipeline.deviceCacheStats()).c_str());
     out << line;
+    std::fprintf(stderr, "%s", line);  // progress: visible if the run is cut short
     std::fprintf(stderr, "pipeline %d sources: %lu depth maps, %lu fused, %lu dropped\n", sources,
                  static_cast<unsigned long>(stats.depth_maps), static_cast<unsigned long>(stats.keyframes_fused),
                  static_cast<unsigned long>(stats.droppedTotal()));
@@ -303,8 +303,7 @@ std::string replayTable(int count) {
     pose.translation().x() += 0.001 * (i / lap);
     keyframe.setCameraToWorld(pose);
     pipeline.push(std::move(keyframe));
-    while (!pipeline.step().empty()) {
-    }
+    pipeline.step();  // the new keyframe (see pipelineTable)
     peak_device = std::max(peak_device, deviceUsedMib());
     if ((i + 1) % interval == 0 || i == 0) {
       const PipelineStats stats = pipeline.stats();
@@ -315,6 +314,7 @@ std::string replayTable(int count) {
                     static_cast<unsigned long>(stats.stored_keyframes), static_cast<unsigned long>(stats.map_voxels),
                     millisecondsSince(interval_start) / (i == 0 ? 1 : interval));
       out << line;
+    std::fprintf(stderr, "%s", line);  // progress: visible if the run is cut short
       interval_start = std::chrono::steady_clock::now();
     }
   }
@@ -327,6 +327,25 @@ std::string replayTable(int count) {
                 static_cast<unsigned long>(stats.droppedTotal()), cacheSummary(pipeline.deviceCacheStats()).c_str());
   out << line;
   return out.str();
+}
+
+std::string renderTables(const std::string& device, const std::vector<Row>& rows, const std::string& online) {
+  std::ostringstream table;
+  table << "device: " << device << "\n\n"
+        << "| scene | size | sources | iterations | backend | median ms | min ms | "
+           "with upload ms | ns / (pixel x source x iteration) | GPU MiB |\n"
+        << "|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Row& r : rows) {
+    const double work = static_cast<double>(r.width) * r.height * r.sources * r.iterations;
+    char line[320];
+    std::snprintf(line, sizeof(line), "| %s | %dx%d | %d | %d | %s%s | %.1f | %.1f | %.1f | %.3f | %.0f |\n",
+                  r.scene.c_str(), r.width, r.height, r.sources, r.iterations, backendName(r.backend),
+                  r.threads ? (" (" + std::to_string(r.threads) + " threads)").c_str() : "",
+                  r.median_ms, r.min_ms, r.median_total_ms, 1e6 * r.median_ms / work, r.gpu_mib);
+    table << line;
+  }
+  table << online;
+  return table.str();
 }
 
 }  // namespace
@@ -352,6 +371,10 @@ int main(int argc, char** argv) {
     else if (a == "--replay" && i + 1 < argc) replay_count = std::max(1, std::atoi(argv[++i]));
     else data = a;
   }
+  // --only A,B,...: the named sections only.
+  const auto wants = [&only](const std::string& section) {
+    return only.empty() || ("," + only + ",").find("," + section + ",") != std::string::npos;
+  };
   std::string device;
   const bool gpu = cudaBackendAvailable(&device);
   std::vector<Row> rows;
@@ -360,20 +383,20 @@ int main(int argc, char** argv) {
     if (gpu) {
       for (const char* name : {"fountain_x0.25", "fountain_x0.5", "fountain_x1"}) {
         const std::string folder = data + "/mvsnet/" + name;
-        if (data.empty() || !exists(folder) || (!only.empty() && only != name)) continue;
+        if (data.empty() || !exists(folder) || !wants(name)) continue;
         const Scene scene = readInputFolder(folder, 10);
         const OwnedDepthProblem owned = makeDepthProblem(scene, 5, ProblemOptions());
         for (int iterations : {6, 3}) rows.push_back(measure(name, owned.problem, Backend::kCuda, iterations, runs, 0));
         std::fprintf(stderr, "%s done\n", name);
       }
-      if (only.empty() || only == "synthetic") {
+      if (wants("synthetic")) {
         const SyntheticProblem vga = makeSyntheticProblem(640, 480, 4);
         for (int iterations : {6, 3}) {
           rows.push_back(measure("synthetic", vga.problem, Backend::kCuda, iterations, runs, 0));
         }
       }
     }
-    if (gpu && (only.empty() || only == "scaling")) {
+    if (gpu && wants("scaling")) {
       // Time should grow with pixels x sources (the cost matrix dominates).
       const int sizes[][2] = {{320, 240}, {640, 480}, {1280, 960}, {2560, 1920}};
       for (const auto& size : sizes) {
@@ -384,40 +407,30 @@ int main(int argc, char** argv) {
       }
       std::fprintf(stderr, "scaling done\n");
     }
-    if (only.empty() || only == "cpu") {
+    if (wants("cpu")) {
       const SyntheticProblem qvga = makeSyntheticProblem(320, 240, 4);
       rows.push_back(measure("synthetic", qvga.problem, Backend::kCpu, 6, quick ? 1 : runs, cpu_threads));
     }
 #ifdef _OPENMP
     omp_set_num_threads(omp_get_num_procs());  // the online tables use every core
 #endif
-    if (only.empty() || only == "fusion") online += fusionTable(std::max(runs, 5));
-    if (only.empty() || only == "pipeline") {
+    // Written after each section: a run cut short keeps what it measured.
+    const auto save = [&] { std::ofstream(out_path) << renderTables(gpu ? device : "none (CPU only)", rows, online); };
+    save();
+    if (wants("fusion")) online += fusionTable(std::max(runs, 5));
+    save();
+    if (wants("pipeline")) {
       online += pipelineTable(quick ? 12 : 60);
+      save();
       std::fprintf(stderr, "pipeline done\n");
     }
-    if (only == "replay" || (only.empty() && !quick)) online += replayTable(replay_count);
+    if (only.empty() ? !quick : wants("replay")) online += replayTable(replay_count);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "amhmvs_benchmark: %s\n", e.what());
     return 1;
   }
 
-  std::ostringstream table;
-  table << "device: " << (gpu ? device : "none (CPU only)") << "\n\n"
-        << "| scene | size | sources | iterations | backend | median ms | min ms | "
-           "with upload ms | ns / (pixel x source x iteration) | GPU MiB |\n"
-        << "|---|---|---|---|---|---|---|---|---|---|\n";
-  for (const Row& r : rows) {
-    const double work = static_cast<double>(r.width) * r.height * r.sources * r.iterations;
-    char line[320];
-    std::snprintf(line, sizeof(line), "| %s | %dx%d | %d | %d | %s%s | %.1f | %.1f | %.1f | %.3f | %.0f |\n",
-                  r.scene.c_str(), r.width, r.height, r.sources, r.iterations, backendName(r.backend),
-                  r.threads ? (" (" + std::to_string(r.threads) + " threads)").c_str() : "",
-                  r.median_ms, r.min_ms, r.median_total_ms, 1e6 * r.median_ms / work, r.gpu_mib);
-    table << line;
-  }
-  table << online;
-  std::printf("%s", table.str().c_str());
-  std::ofstream(out_path) << table.str();
+  std::printf("%s", renderTables(gpu ? device : "none (CPU only)", rows, online).c_str());
+  std::ofstream(out_path) << renderTables(gpu ? device : "none (CPU only)", rows, online);
   return 0;
 }

@@ -56,5 +56,23 @@ TEST(BackgroundWriter, FirstErrorNamesTheFileAndSkipsTheRest) {
   EXPECT_THROW(writer.finish(), std::exception);  // still reported
 }
 
+TEST(BackgroundWriter, SeveralThreadsRunEveryJobOnceAndReportAFailure) {
+  std::vector<std::atomic<int>> runs(200);
+  {
+    BackgroundWriter writer(8, 4);
+    for (size_t i = 0; i < runs.size(); ++i) writer.submit([&runs, i] { ++runs[i]; });
+    writer.finish();
+  }
+  for (size_t i = 0; i < runs.size(); ++i) EXPECT_EQ(runs[i].load(), 1) << "job " << i;
+  BackgroundWriter writer(8, 4);
+  writer.submit([] { writePfm("/nonexistent_amhmvs_dir/cost.pfm", ImageF(2, 2)); });
+  try {
+    writer.finish();
+    FAIL() << "the write error was not reported";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent_amhmvs_dir/cost.pfm"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace amhmvs

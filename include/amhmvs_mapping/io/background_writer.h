@@ -1,8 +1,9 @@
 // Output files written off the critical path: jobs (encode and write one
-// result's files) run in order on one thread behind a bounded queue, so that
-// the next estimate overlaps them and memory stays bounded.
+// file) run on worker threads behind a bounded queue, so that the next
+// estimate overlaps them and memory stays bounded. With one thread the jobs
+// run in submission order; with more, in any order.
 //
-//   BackgroundWriter writer(2);
+//   BackgroundWriter writer(8, 4);
 //   writer.submit([map = std::move(map)] { writePfm(path, map.depth); });
 //   ...
 //   writer.finish();  // waits; throws the first job's error
@@ -18,13 +19,14 @@
 #include <functional>
 #include <mutex>
 #include <thread>
+#include <vector>
 
 namespace amhmvs {
 
 class BackgroundWriter {
  public:
   // At most `max_queued` jobs wait (>= 1); submit() blocks while it is full.
-  explicit BackgroundWriter(size_t max_queued);
+  explicit BackgroundWriter(size_t max_queued, int threads = 1);
   // Waits for the queued jobs; an error not yet reported by finish() is lost
   // here (destructors must not throw): call finish().
   ~BackgroundWriter();
@@ -43,10 +45,10 @@ class BackgroundWriter {
   std::mutex mutex_;
   std::condition_variable changed_;
   std::deque<std::function<void()>> jobs_;
-  bool busy_ = false;     // a job is running
+  int running_ = 0;       // jobs being run
   bool stopping_ = false;
   std::exception_ptr failure_;
-  std::thread worker_;
+  std::vector<std::thread> workers_;
 };
 
 }  // namespace amhmvs
