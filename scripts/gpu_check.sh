@@ -124,6 +124,12 @@ p.convert_dense_folder('/tmp/synthetic_640_png', '/tmp/synthetic_640')"
     new=$(walltime "$bin/amhmvs_depth" "$folder" $extra || echo "failed")
     echo "| $name | $maps | $base | $new | <= $target |"
   done | tee "$out/depth_wall.md"
+  echo "where the time goes (this code, one more run each):"
+  for folder in "$data/mvsnet/fountain_x0.25" "$data/mvsnet/fountain_x0.5" "$data/mvsnet/fountain_x1" /tmp/synthetic_640; do
+    extra=""; [ "$folder" = /tmp/synthetic_640 ] && extra="--num_sources 4"
+    [ -d "$folder" ] && "$bin/amhmvs_depth" "$folder" /tmp/wall_out --backend cuda $extra 2>&1 | grep "ms in all" \
+      | sed "s|^|  $(basename $folder): |" | tee -a "$out/depth_wall.md"
+  done
 fi
 if [[ " $steps " == *" bench "* ]]; then
   echo "== benchmark =="
