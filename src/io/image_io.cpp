@@ -79,8 +79,8 @@ PnmHeader parsePnmHeader(const std::string& bytes, const std::string& path) {
     }
     return static_cast<int>(value);
   };
-  h.width = next_number("width", 1L << 20);
-  h.height = next_number("height", 1L << 20);
+  h.width = next_number("width", kMaxImageSide);
+  h.height = next_number("height", kMaxImageSide);
   h.maxval = next_number("maxval", 65535);
   if (pos >= bytes.size() || !std::isspace(static_cast<unsigned char>(bytes[pos]))) {
     throw InputError(path + ": invalid or truncated PNM header (no whitespace after maxval)");
@@ -149,7 +149,7 @@ bool pngSize(const std::string& head, const std::string& path, int* w, int* h) {
   }
   const uint32_t width = bigEndian32(p + 16);
   const uint32_t height = bigEndian32(p + 20);
-  if (width == 0 || height == 0 || width > (1u << 20) || height > (1u << 20)) {
+  if (width == 0 || height == 0 || width > kMaxImageSide || height > kMaxImageSide) {
     throw InputError(path + ": corrupt PNG (invalid size " + std::to_string(width) + "x" +
                      std::to_string(height) + ")");
   }
@@ -211,10 +211,16 @@ bool bmpSize(const std::string& head, const std::string& path, int* w, int* h) {
   std::memcpy(&width, p + 18, 4);
   std::memcpy(&height, p + 22, 4);
   if (!internal::isLittleEndianHost()) return false;
-  if (height < 0) height = -height;  // negative height: rows stored top-down
-  if (width <= 0 || height <= 0) throw InputError(path + ": corrupt BMP (invalid size)");
+  // A negative height means rows stored top-down; widened first, because
+  // negating INT32_MIN in 32 bits is undefined.
+  const int64_t rows = height < 0 ? -int64_t{height} : int64_t{height};
+  if (width <= 0 || rows <= 0 || width > kMaxImageSide || rows > kMaxImageSide) {
+    throw InputError(path + ": corrupt BMP (invalid size " + std::to_string(width) + "x" +
+                     std::to_string(height) + "; each side must be 1.." +
+                     std::to_string(kMaxImageSide) + ")");
+  }
   *w = width;
-  *h = height;
+  *h = static_cast<int>(rows);
   return true;
 }
 

@@ -2,14 +2,21 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <future>
 #include <iostream>
+#include <memory>
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
 #include "amhmvs_mapping/eval/ground_truth_depth.h"
+#include "amhmvs_mapping/io/background_writer.h"
 #include "amhmvs_mapping/io/colmap_model.h"
 #include "amhmvs_mapping/io/colormap.h"
 #include "amhmvs_mapping/io/image_io.h"
@@ -19,6 +26,10 @@
 
 namespace amhmvs {
 namespace {
+
+double millisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
 
 bool isDirectory(const std::string& path) {
   struct stat info;
@@ -30,7 +41,11 @@ void makeDirectories(const std::string& path) {
     if (pos == path.size() || path[pos] == '/') {
       const std::string prefix = path.substr(0, pos);
       if (!isDirectory(prefix) && mkdir(prefix.c_str(), 0755) != 0 && !isDirectory(prefix)) {
-        throw InputError(prefix + ": cannot create directory");
+        // errno says why: a file in the way, no permission, a read-only file
+        // system, a missing parent.
+        const std::string why =
+            errno == EEXIST ? "a file that is not a directory is in the way" : std::strerror(errno);
+        throw InputError(prefix + ": cannot create directory (" + why + ")");
       }
     }
   }
@@ -40,6 +55,32 @@ std::string viewFolderName(int view_id) {
   char name[16];
   std::snprintf(name, sizeof(name), "%08d", view_id);
   return name;
+}
+
+// Every view at its processed size, and every reference view with the depth
+// range it will use, checked before any work: a problem names the view id
+// (the estimator would only know "source view <index>") and nothing is written.
+void checkViewsBeforeEstimating(const Scene& scene, const std::vector<int>& reference_ids,
+                                const ProblemOptions& options) {
+  for (const SceneView& view : scene.views) {
+    int width, height;
+    scaledSize(view.camera.width, view.camera.height, options, &width, &height);
+    const std::string why = view.camera.resized(width, height).validate();
+    if (!why.empty()) {
+      throw InputError("view " + std::to_string(view.id) + " (" + view.image_path + ") at " +
+                       std::to_string(width) + "x" + std::to_string(height) + ": " + why);
+    }
+  }
+  if (options.depth_min <= 0) return;  // the views' own ranges were checked at load
+  for (const int id : reference_ids) {
+    const int index = scene.indexOf(id);
+    if (index < 0) continue;  // reported by makeDepthProblem
+    const std::string why =
+        conditioningProblem(scene.views[index].camera, options.depth_min, options.depth_max);
+    if (!why.empty()) {
+      throw InputError("view " + std::to_string(id) + " with --depth_min/--depth_max: " + why);
+    }
+  }
 }
 
 }  // namespace
@@ -62,28 +103,52 @@ void maskByCost(DepthMap* map, float max_cost) {
   }
 }
 
-void writeDepthOutputs(const std::string& output_dir, int view_id, const DepthProblem& problem,
-                       const DepthMap& map) {
+namespace {
+
+// The files of one depth map as independent jobs (any order, any thread):
+// depth.pfm, normal.pfm, cost.pfm, depth.png, cam.txt in `dir`.
+std::vector<std::function<void()>> depthOutputJobs(const std::string& dir, const PinholeCamera& camera,
+                                                   double depth_min, double depth_max,
+                                                   std::shared_ptr<const DepthMap> map) {
+  std::vector<std::function<void()>> jobs;
+  jobs.push_back([dir, map] { writePfm(dir + "/depth.pfm", map->depth); });
+  jobs.push_back([dir, map] { writePfm(dir + "/normal.pfm", map->normal); });
+  jobs.push_back([dir, map] { writePfm(dir + "/cost.pfm", map->cost); });
+  jobs.push_back([dir, map, depth_min, depth_max] {
+    // Colour scale from the map's own robust range, else the problem's range
+    // (a map with no valid depth at all is shown black).
+    std::pair<float, float> range(static_cast<float>(depth_min), static_cast<float>(depth_max));
+    try {
+      range = robustRange(map->depth);
+    } catch (const InputError&) {
+    }
+    writePng(dir + "/depth.png", colorizeDepth(map->depth, range.first, range.second));
+  });
+  jobs.push_back([dir, camera, depth_min, depth_max] { writeMvsnetCam(dir + "/cam.txt", camera, depth_min, depth_max); });
+  return jobs;
+}
+
+}  // namespace
+
+void writeDepthOutputs(const std::string& output_dir, int view_id, const PinholeCamera& camera,
+                       double depth_min, double depth_max, const DepthMap& map) {
   const std::string dir = output_dir + "/" + viewFolderName(view_id);
   makeDirectories(dir);
-  writePfm(dir + "/depth.pfm", map.depth);
-  writePfm(dir + "/normal.pfm", map.normal);
-  writePfm(dir + "/cost.pfm", map.cost);
-  // Colour scale from the map's own robust range, else the problem's range
-  // (a map with no valid depth at all is shown black).
-  std::pair<float, float> range(static_cast<float>(problem.depth_min),
-                                static_cast<float>(problem.depth_max));
-  try {
-    range = robustRange(map.depth);
-  } catch (const InputError&) {
-  }
-  writePng(dir + "/depth.png", colorizeDepth(map.depth, range.first, range.second));
-  writeMvsnetCam(dir + "/cam.txt", problem.reference_camera, problem.depth_min, problem.depth_max);
+  // Borrowed for the calls below only (no-op deleter): no copy of the map.
+  const std::shared_ptr<const DepthMap> borrowed(&map, [](const DepthMap*) {});
+  for (const auto& job : depthOutputJobs(dir, camera, depth_min, depth_max, borrowed)) job();
 }
 
 int runDepthJob(const std::string& input_dir, const std::string& output_dir,
                 const DepthJobOptions& options,
                 const std::function<void(int, const DepthProblem&, const DepthMap&)>& on_result) {
+  using Clock = std::chrono::steady_clock;
+  const auto job_start = Clock::now();
+  // The GPU context starts (a few hundred ms) while the scene and the first
+  // problem's images are read.
+  std::future<std::unique_ptr<DepthEstimator>> starting = std::async(std::launch::async, [&options] {
+    return std::make_unique<DepthEstimator>(options.patchmatch, options.backend);
+  });
   const Scene scene = readInputFolder(input_dir, options.problem.max_sources);
   std::vector<int> ids = options.reference_ids;
   if (ids.empty()) {
@@ -93,7 +158,16 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
     }
   }
   if (ids.empty()) throw InputError(input_dir + ": no view has source views");
-  const DepthEstimator estimator(options.patchmatch, options.backend);
+  checkViewsBeforeEstimating(scene, ids, options.problem);
+  // Each image is read once and, on the GPU, uploaded once (view ids are the
+  // image keys); an image the cache drops leaves the device too.
+  SceneImageCache images(scene, options.problem);
+  DepthProblem first_problem = images.makeProblem(ids[0]);
+  const double first_problem_ms = millisecondsSince(job_start);
+  const std::unique_ptr<DepthEstimator> estimator_owner = starting.get();
+  DepthEstimator& estimator = *estimator_owner;
+  images.onDrop([&estimator](int64_t view_id) { estimator.forget(view_id); });
+  const double startup_ms = millisecondsSince(job_start);
   if (!options.quiet) {
     std::string gpu;
     cudaBackendAvailable(&gpu);
@@ -106,11 +180,18 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
   }
   int written = 0;
   AccuracyCounts pooled;
+  // Encoding and writing overlap the next estimate, one file per job on 4
+  // threads; about two maps in the queue bound the memory (x1: 126 MB each).
+  BackgroundWriter writer(10, 4);
+  double problem_ms = first_problem_ms, estimate_ms = 0, writer_wait_ms = 0;
   for (size_t i = 0; i < ids.size(); ++i) {
-    const DepthProblem problem = makeDepthProblem(scene, ids[i], options.problem);
+    auto start = Clock::now();
+    const DepthProblem problem = i == 0 ? first_problem : images.makeProblem(ids[i]);
+    if (i > 0) problem_ms += millisecondsSince(start);
+    start = Clock::now();
     DepthMap map = estimator.estimate(problem);
+    estimate_ms += millisecondsSince(start);
     if (options.max_cost > 0) maskByCost(&map, options.max_cost);
-    if (!output_dir.empty()) writeDepthOutputs(output_dir, ids[i], problem, map);
     if (on_result) on_result(ids[i], problem, map);
     ++written;
     std::string accuracy;
@@ -129,6 +210,26 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
                    problem.reference_camera.height, problem.source_cameras.size(), problem.depth_min,
                    problem.depth_max, map.milliseconds, accuracy.c_str());
     }
+    if (!output_dir.empty()) {
+      start = Clock::now();
+      const std::string dir = output_dir + "/" + viewFolderName(ids[i]);
+      makeDirectories(dir);
+      for (auto& job : depthOutputJobs(dir, problem.reference_camera, problem.depth_min, problem.depth_max,
+                                       std::make_shared<const DepthMap>(std::move(map)))) {
+        writer.submit(std::move(job));
+      }
+      writer_wait_ms += millisecondsSince(start);
+    }
+  }
+  auto start = Clock::now();
+  writer.finish();  // a write error (naming its file) is thrown here
+  writer_wait_ms += millisecondsSince(start);
+  if (!options.quiet) {
+    std::fprintf(stderr,
+                 "amhmvs_depth: %.0f ms in all: %.0f until the estimator was ready (first problem's images read "
+                 "after %.0f), %.0f building problems, %.0f estimating, %.0f waiting for the writer\n",
+                 millisecondsSince(job_start), startup_ms, first_problem_ms, problem_ms, estimate_ms,
+                 writer_wait_ms);
   }
   if (!options.ground_truth_dir.empty()) {
     std::fprintf(stderr, "depth accuracy over %d maps (%ld pixels): within 1/2/5 %%: %s %%\n",
@@ -143,14 +244,49 @@ std::vector<int> parseIdList(const std::string& text) {
   std::vector<int> ids;
   std::istringstream in(text);
   std::string item;
-  while (std::getline(in, item, ',')) ids.push_back(parseValue<int>("views", item));
+  while (std::getline(in, item, ',')) {
+    const int id = parseValue<int>("views", item);
+    if (id < 0) throw InputError("option --views: view id " + item + " is negative");
+    if (std::find(ids.begin(), ids.end(), id) != ids.end()) {
+      throw InputError("option --views: view " + item + " is listed twice");
+    }
+    ids.push_back(id);
+  }
+  if (ids.empty()) throw InputError("option --views: no view id given");
   return ids;
+}
+
+// Values that parse but mean nothing: refused rather than silently ignored.
+void checkOptionMeanings(const DepthJobOptions& options, bool depth_min_given,
+                         bool depth_max_given) {
+  const ProblemOptions& p = options.problem;
+  if (depth_min_given != depth_max_given) {
+    throw InputError("options --depth_min and --depth_max must be given together");
+  }
+  if (depth_min_given &&
+      !(p.depth_min >= kMinDepth && p.depth_max <= kMaxDepth && p.depth_min < p.depth_max)) {
+    std::ostringstream why;
+    why << "invalid depth range: options --depth_min " << p.depth_min << " --depth_max " << p.depth_max
+        << ": need " << kMinDepth << " <= depth_min < depth_max <= " << kMaxDepth;
+    throw InputError(why.str());
+  }
+  // The estimator's window is 11x11 px by default: a smaller image has no
+  // pixel whose window fits (the nodelet has the same floor).
+  if (p.max_image_size != 0 && p.max_image_size < kMinMaxImageSize) {
+    throw InputError("option --max_image_size " + std::to_string(p.max_image_size) +
+                     ": must be 0 (no limit) or >= " + std::to_string(kMinMaxImageSize));
+  }
+  if (!(std::isfinite(options.max_cost) && options.max_cost >= 0)) {
+    throw InputError("option --max_cost " + std::to_string(options.max_cost) +
+                     ": must be > 0 (a cost threshold) or 0 (no mask)");
+  }
 }
 
 }  // namespace
 
 DepthJobOptions parseDepthJobArguments(const std::vector<std::string>& arguments) {
   DepthJobOptions options;
+  bool depth_min_given = false, depth_max_given = false;
   for (size_t i = 0; i < arguments.size(); ++i) {
     std::string name, value;
     nextOption(arguments, &i, {"quiet"}, &name, &value);
@@ -159,14 +295,20 @@ DepthJobOptions parseDepthJobArguments(const std::vector<std::string>& arguments
     else if (name == "num_sources") options.problem.max_sources = parseValue<int>(name, value);
     else if (name == "max_image_size") options.problem.max_image_size = parseValue<int>(name, value);
     else if (name == "scale") options.problem.scale = parseValue<double>(name, value);
-    else if (name == "depth_min") options.problem.depth_min = parseValue<double>(name, value);
-    else if (name == "depth_max") options.problem.depth_max = parseValue<double>(name, value);
+    else if (name == "depth_min") {
+      options.problem.depth_min = parseValue<double>(name, value);
+      depth_min_given = true;
+    } else if (name == "depth_max") {
+      options.problem.depth_max = parseValue<double>(name, value);
+      depth_max_given = true;
+    }
     else if (name == "backend") options.backend = parseBackend(value);
     else if (name == "max_cost") options.max_cost = parseValue<float>(name, value);
     else if (name == "ground_truth") options.ground_truth_dir = value;
     else if (!setPatchMatchOption(name, value, &options.patchmatch))
       throw InputError("unknown option --" + name + " (see --help)");
   }
+  checkOptionMeanings(options, depth_min_given, depth_max_given);
   const std::string problems = options.problem.validate() + options.patchmatch.validate();
   if (!problems.empty()) throw InputError("invalid options:\n" + problems);
   return options;

@@ -46,7 +46,12 @@ void writePointCloud(const std::string& path, const PointCloud& cloud);
 // scalar property type is accepted; other elements are skipped (binary: only
 // when they have no list properties). Throws InputError naming the file and
 // the problem for other formats, missing x/y/z, list properties in the vertex
-// element, truncated data and non-finite coordinates.
+// element, truncated data and non-finite coordinates. Allocations are bounded
+// by what the file can hold: a vertex count larger than the data (or than
+// kMaxPlyVertices) is refused before any memory is reserved.
 PointCloud readPly(const std::string& path);
+
+// The most vertices readPly accepts (2^28: 3 GiB of float positions).
+constexpr size_t kMaxPlyVertices = size_t{1} << 28;
 
 }  // namespace amhmvs
