@@ -80,7 +80,7 @@ void runOffline(const PosedSequence& sequence, const std::vector<size_t>& picked
 // oldest when the estimator falls behind.
 void runRealtime(const PosedSequence& sequence, const std::vector<size_t>& picked, const MapToolOptions& options,
                  MappingPipeline* pipeline, MapOutputs* outputs, MapRunTotals* totals) {
-  std::atomic<bool> fed{false};
+  std::atomic<bool> fed{false}, stop{false};
   std::exception_ptr feeder_error;
   double reading_s = 0;
   size_t pushed = 0;
@@ -89,6 +89,7 @@ void runRealtime(const PosedSequence& sequence, const std::vector<size_t>& picke
       const Clock::time_point start = Clock::now();
       const double first_stamp = sequence.frames[picked.front()].stamp;
       for (size_t index : picked) {
+        if (stop) break;
         const double due_s = (sequence.frames[index].stamp - first_stamp) / options.realtime_rate;
         std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
                                                   std::chrono::duration<double>(due_s)));
@@ -104,14 +105,20 @@ void runRealtime(const PosedSequence& sequence, const std::vector<size_t>& picke
     fed = true;
     pipeline->wake();
   });
-  while (true) {
-    const bool all_fed = fed;  // read before the step: a push after it is seen next round
-    const std::vector<PipelineOutput> results = pipeline->step();
-    for (const PipelineOutput& output : results) outputs->add(output);
-    if (results.empty()) {
-      if (all_fed && pipeline->stats().idle) break;
-      pipeline->waitForWork(0.1);
+  try {
+    while (true) {
+      const bool all_fed = fed;  // read before the step: a push after it is seen next round
+      const std::vector<PipelineOutput> results = pipeline->step();
+      for (const PipelineOutput& output : results) outputs->add(output);
+      if (results.empty()) {
+        if (all_fed && pipeline->stats().idle) break;
+        pipeline->waitForWork(0.1);
+      }
     }
+  } catch (...) {
+    stop = true;  // the feeder ends at its next frame; then the error goes on
+    feeder.join();
+    throw;
   }
   feeder.join();
   totals->reading_s = reading_s;

@@ -1,6 +1,7 @@
 #include "map_outputs.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -243,7 +244,9 @@ void MapOutputs::add(const PipelineOutput& output) {
   auto row = std::make_shared<Row>();
   row->index = ++results_;
   row->output = output;
-  writer_.post([this, row] { write(*row); });
+  const auto start = std::chrono::steady_clock::now();
+  writer_.submit([this, row] { write(*row); });
+  submit_blocked_ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
 void MapOutputs::writeFiles(const KeyframeResult& result) {
@@ -353,9 +356,8 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   for (const PipelineStatField& field : pipelineStatFields()) counters.add(field.name, std::to_string(stats.*field.value));
   summary.add("stats", counters.object());
   JsonFields writer;
-  writer.add("max_queued", std::to_string(writer_.maxQueued()));
-  writer.add("peak_queued", std::to_string(writer_.peakQueued()));
-  writer.add("blocked_ms", number(writer_.blockedMilliseconds()));
+  writer.add("max_queued", std::to_string(options_.writer_queue));
+  writer.add("blocked_ms", number(submit_blocked_ms_));
   summary.add("writer", writer.object());
 
   DepthComparison pooled;

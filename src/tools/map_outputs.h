@@ -15,9 +15,9 @@
 #include <Eigen/Core>
 
 #include "amhmvs_mapping/eval/depth_metrics.h"
+#include "amhmvs_mapping/io/background_writer.h"
 #include "amhmvs_mapping/io/posed_sequence.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
-#include "async_writer.h"
 #include "map_options.h"
 
 namespace amhmvs {
@@ -65,7 +65,8 @@ class MapOutputs {
   std::map<int64_t, DepthComparison> accuracy_;  // latest depth map of each keyframe
   std::map<int64_t, std::vector<Eigen::Vector3f>> truth_points_;  // ground-truth surface, world
   std::vector<double> total_ms_, estimate_ms_;
-  AsyncWriter writer_;  // last: stopped first
+  double submit_blocked_ms_ = 0;  // main thread: time add() waited for room in the writer's queue
+  BackgroundWriter writer_;  // last: stopped first
 };
 
 }  // namespace amhmvs
