@@ -42,6 +42,9 @@ set(AMHMVS_CORE_SOURCES
   src/io/mvsnet_folder.cpp
   src/io/colmap_model.cpp
   src/io/point_cloud_io.cpp
+  src/io/posed_sequence.cpp
+  src/io/seven_scenes_sequence.cpp
+  src/io/tum_rgbd_sequence.cpp
   src/mvs/patchmatch_options.cpp
   src/mvs/propagation_pattern.cpp
   src/mvs/depth_estimator.cpp

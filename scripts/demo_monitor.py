@@ -238,7 +238,7 @@ class DemoMonitor:
         total = sum(k["total"] for k in evaluated)
         checked, on_surface = self.map_on_surface(xyz)
         d = self.diagnostics
-        dropped = {k[len("dropped: "):]: int(v) for k, v in d.items() if k.startswith("dropped: ")}
+        dropped = {k[len("dropped: "):]: int(v) for k, v in d.items() if k.startswith("dropped: ") and v != "0"}
         wall = [k["wall_ms"] for k in evaluated]
         return {
             "completed": completed,

@@ -2,7 +2,9 @@
 # Installs the Debian 12 packages that amhmvs_mapping needs (ROS 1 from
 # Debian's own packages, Eigen, OpenCV, PCL, gtest, COLMAP for the COLMAP
 # input tests; rviz, Xvfb and ImageMagick for the demo's headless rviz
-# picture). Installs only what is missing; needs root (or sudo).
+# picture; clang with its sanitizer/libFuzzer runtimes, OpenMP and
+# llvm-symbolizer for the core suites and fuzzers of the test command).
+# Installs only what is missing; needs root (or sudo).
 set -euo pipefail
 
 packages=(
@@ -23,6 +25,7 @@ packages=(
   libeigen3-dev libopencv-dev libgtest-dev googletest python3-numpy python3-opencv
   colmap
   rviz xvfb imagemagick libgl1-mesa-dri python3-tf2-msgs python3-diagnostic-msgs python3-rosnode python3-yaml
+  clang libclang-rt-14-dev libomp-14-dev llvm-14
 )
 
 missing=()

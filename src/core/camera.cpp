@@ -1,5 +1,6 @@
 #include "amhmvs_mapping/core/camera.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -48,6 +49,48 @@ std::string PinholeCamera::validate() const {
       why << "pose rotation is not rigid (|R R^T - I| = " << orthogonality
           << ", det R = " << det << ")";
     }
+  }
+  return why.str();
+}
+
+std::string conditioningProblem(const PinholeCamera& camera, double depth_min, double depth_max) {
+  std::ostringstream why;
+  why.precision(3);
+  const double side = std::max(camera.width, camera.height);
+  const double focal_ratio = std::min(camera.fx, camera.fy) / side;
+  const double focal_ratio_max = std::max(camera.fx, camera.fy) / side;
+  // Focal length in units of the longest image side. Below 1e-3 the field of
+  // view exceeds 179.9 deg: the rays of the border pixels are within 1e-3 rad
+  // of the image plane, and the float plane-induced homography (entries
+  // ~ f^-1 against ~ 1) loses all its digits. Above 1e4 the whole image spans
+  // less than 1e-4 rad: neighbouring pixel rays differ by < 1e-4 / side rad,
+  // below float resolution (2^-24 ~ 6e-8) relative to the ray for sides over
+  // ~1600 px, so depth from parallax is noise.
+  if (!(focal_ratio >= kMinFocalPerImageSide && focal_ratio_max <= kMaxFocalPerImageSide)) {
+    why << "focal length (fx=" << camera.fx << ", fy=" << camera.fy << ") is outside "
+        << kMinFocalPerImageSide << ".." << kMaxFocalPerImageSide << " times the longest image side ("
+        << side << " px)";
+    return why.str();
+  }
+  // The estimator works in float with depths, inverse depths and products of
+  // up to three of them (plane distances times ray terms): within
+  // [1e-12, 1e12] their cubes stay normal floats (1e-36 > FLT_MIN = 1.2e-38,
+  // 1e36 < FLT_MAX = 3.4e38); a range 1e-300..1e300 became 0..inf in float.
+  if (!(depth_min >= kMinDepth && depth_max <= kMaxDepth && depth_max > depth_min)) {
+    why << "depth range [" << depth_min << ", " << depth_max << "] is outside " << kMinDepth
+        << ".." << kMaxDepth << " (float range of the estimator) or empty";
+    return why.str();
+  }
+  // World points (fusion, map, point cloud files) are floats: a point near
+  // this camera has magnitude ~ |C| and a rounding error of |C| 2^-24. With
+  // |C| <= 1e4 depth_max that error is <= 6e-4 depth_max, i.e. well under 1 %
+  // of any depth in a range of ratio up to 10; a centre 1e308 away (finite,
+  // valid rotation) left nothing but NaN.
+  const double centre_distance = camera.center().stableNorm();  // no overflow at 1e308
+  if (!(centre_distance <= kMaxCentreDistancePerDepth * depth_max)) {
+    why << "camera centre is " << centre_distance << " from the world origin, more than "
+        << kMaxCentreDistancePerDepth << " times depth_max (" << depth_max
+        << "): world points would lose their precision in float";
   }
   return why.str();
 }

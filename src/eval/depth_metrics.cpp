@@ -48,6 +48,20 @@ AccuracyCounts denseDepthAccuracy(const ImageF& depth, const ImageF& truth,
   return counts;
 }
 
+DepthComparison compareDepth(const ImageF& estimate, const ImageF& truth) {
+  if (!estimate.sameSize(truth.width, truth.height)) {
+    throw InputError("depth map and ground truth differ in size");
+  }
+  DepthComparison comparison;
+  for (size_t i = 0; i < truth.data.size(); ++i) {
+    const float t = truth.data[i], d = estimate.data[i];
+    if (!(std::isfinite(t) && t > 0)) continue;
+    ++comparison.truth_pixels;
+    if (std::isfinite(d) && d > 0) comparison.accuracy.add(d, t);
+  }
+  return comparison;
+}
+
 namespace {
 
 // calib.txt: "key=value" lines; values may carry stray spaces; K as

@@ -218,6 +218,13 @@ class BinaryReader {
   uint64_t u64(const char* what) { return little(8, what); }
   uint32_t u32(const char* what) { return static_cast<uint32_t>(little(4, what)); }
   int32_t i32(const char* what) { return static_cast<int32_t>(little(4, what)); }
+  // A uint32 id; ids above INT_MAX are refused (they would become negative
+  // view ids), as the text reader refuses them.
+  int id(const char* what) {
+    const uint32_t v = u32(what);
+    if (v > 0x7fffffffu) fail(std::string(what) + " " + std::to_string(v) + " out of range (max 2147483647)");
+    return static_cast<int>(v);
+  }
   double f64(const char* what) {
     const uint64_t bits = little(8, what);
     double v;
@@ -279,7 +286,7 @@ void readCamerasBinary(const std::string& path, ColmapModel* model) {
   const uint64_t count = in.u64("camera count");
   in.checkCount(count, 24, "camera");
   for (uint64_t i = 0; i < count; ++i) {
-    const int id = static_cast<int>(in.u32("camera id"));
+    const int id = in.id("camera id");
     const int model_id = in.i32("camera model");
     const uint64_t width = in.u64("width");
     const uint64_t height = in.u64("height");
@@ -309,13 +316,13 @@ void readImagesBinary(const std::string& path, ColmapModel* model) {
   in.checkCount(count, 4 + 7 * 8 + 4 + 1 + 8, "image");
   for (uint64_t i = 0; i < count; ++i) {
     ColmapImage image;
-    image.id = static_cast<int>(in.u32("image id"));
+    image.id = in.id("image id");
     image.qw = in.f64("qvec");
     image.qx = in.f64("qvec");
     image.qy = in.f64("qvec");
     image.qz = in.f64("qvec");
     for (int k = 0; k < 3; ++k) image.t[k] = in.f64("tvec");
-    image.camera_id = static_cast<int>(in.u32("camera id"));
+    image.camera_id = in.id("camera id");
     image.name = in.cstring("image name");
     const uint64_t num_points2d = in.u64("2D point count");
     in.checkCount(num_points2d, 24, "2D point");
@@ -339,7 +346,7 @@ void readPointsBinary(const std::string& path, ColmapModel* model) {
     in.checkCount(track, 8, "track element");
     point.image_ids.reserve(track);
     for (uint64_t k = 0; k < track; ++k) {
-      point.image_ids.push_back(static_cast<int>(in.u32("track image id")));
+      point.image_ids.push_back(in.id("track image id"));
       in.u32("track point2D index");
     }
     model->points.push_back(std::move(point));
@@ -391,7 +398,7 @@ Scene buildScene(const ColmapModel& model, const std::string& images_file,
   std::unordered_map<int, int> index_of_id;
   for (const ColmapImage& image : images) {
     const std::string where = images_file + ": image " + std::to_string(image.id) + " ('" +
-                              image.name + "'): ";
+                              internal::excerpt(image.name) + "'): ";
     if (!index_of_id.emplace(image.id, static_cast<int>(scene.views.size())).second) {
       throw InputError(where + "image id appears twice");
     }
@@ -399,14 +406,30 @@ Scene buildScene(const ColmapModel& model, const std::string& images_file,
     if (cam == model.cameras.end()) {
       throw InputError(where + "unknown camera id " + std::to_string(image.camera_id));
     }
-    Eigen::Quaterniond q(image.qw, image.qx, image.qy, image.qz);
-    if (!q.coeffs().allFinite() || q.norm() < 1e-6) {
-      throw InputError(where + "invalid rotation quaternion");
+    const Eigen::Quaterniond q(image.qw, image.qx, image.qy, image.qz);
+    // Scaled by its largest component before the norm, which would overflow
+    // for components near 1e300 (and normalise to a wrong pose).
+    // COLMAP writes unit quaternions: a norm outside [1e-6, 1e6] is corruption.
+    const double q_scale = q.coeffs().cwiseAbs().maxCoeff();
+    const double q_norm = q_scale > 0 ? (q.coeffs() / q_scale).norm() * q_scale : 0.0;
+    if (!q.coeffs().allFinite() || !(q_norm >= 1e-6 && q_norm <= 1e6)) {
+      std::ostringstream values;
+      values << "(" << image.qw << ", " << image.qx << ", " << image.qy << ", " << image.qz
+             << "), norm " << q_norm;
+      throw InputError(where + "invalid rotation quaternion " + values.str() +
+                       " (need finite components and a norm in [1e-6, 1e6])");
+    }
+    const Eigen::Quaterniond unit(q.coeffs() / q_scale);
+    const fs::path name(image.name);
+    if (name.empty() || name.is_absolute() ||
+        std::any_of(name.begin(), name.end(), [](const fs::path& part) { return part == ".."; })) {
+      throw InputError(where + "image name must be a relative path inside the image folder "
+                       "(no absolute path, no '..')");
     }
     SceneView view;
     view.id = image.id;
     view.name = image.name;
-    view.image_path = (fs::path(image_dir) / image.name).string();
+    view.image_path = (fs::path(image_dir) / name).string();
     PinholeCamera& c = view.camera;
     c.fx = cam->second.fx;
     c.fy = cam->second.fy;
@@ -414,7 +437,7 @@ Scene buildScene(const ColmapModel& model, const std::string& images_file,
     c.cy = cam->second.cy;
     c.width = cam->second.width;
     c.height = cam->second.height;
-    c.R = q.normalized().toRotationMatrix();
+    c.R = unit.normalized().toRotationMatrix();
     c.t = image.t;
     const std::string why = c.validate();
     if (!why.empty()) throw InputError(where + "invalid camera: " + why);
@@ -490,6 +513,11 @@ Scene buildScene(const ColmapModel& model, const std::string& images_file,
           view.depth_min > 0 && view.depth_max > view.depth_min)) {
       throw InputError(images_file + ": image " + std::to_string(view.id) + " ('" + view.name +
                        "'): degenerate depth range from its sparse points");
+    }
+    const std::string conditioning = conditioningProblem(view.camera, view.depth_min, view.depth_max);
+    if (!conditioning.empty()) {
+      throw InputError(images_file + ": image " + std::to_string(view.id) + " ('" + view.name +
+                       "'): " + conditioning);
     }
 
     std::vector<SourceCandidate> sources;

@@ -68,12 +68,34 @@ inline std::vector<std::string> splitWhitespace(const std::string& line) {
   return tokens;
 }
 
-// A line cut to a readable length for error messages.
+// A line cut to a readable length for error messages, with bytes that are
+// not printable ASCII written as \xNN: a binary file given as a text file
+// must not put control characters or broken UTF-8 on the user's terminal.
 inline std::string excerpt(const std::string& text, size_t max_chars = 60) {
   std::string s = text;
   while (!s.empty() && (s.back() == '\r' || s.back() == ' ' || s.back() == '\t')) s.pop_back();
-  return s.size() <= max_chars ? s : s.substr(0, max_chars) + "...";
+  const bool cut = s.size() > max_chars;
+  if (cut) s.resize(max_chars);
+  std::string out;
+  for (const char c : s) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte >= 0x20 && byte < 0x7f) {
+      out.push_back(c);
+    } else {
+      static const char kHex[] = "0123456789abcdef";
+      out += {'\\', 'x', kHex[byte >> 4], kHex[byte & 15]};
+    }
+  }
+  return cut ? out + "..." : out;
 }
+
+// a * b, or false when the product does not fit in size_t.
+inline bool checkedMultiply(size_t a, size_t b, size_t* product) {
+  return !__builtin_mul_overflow(a, b, product);
+}
+
+// a + b, or false when the sum does not fit in size_t.
+inline bool checkedAdd(size_t a, size_t b, size_t* sum) { return !__builtin_add_overflow(a, b, sum); }
 
 }  // namespace internal
 }  // namespace amhmvs

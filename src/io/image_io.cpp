@@ -79,8 +79,8 @@ PnmHeader parsePnmHeader(const std::string& bytes, const std::string& path) {
     }
     return static_cast<int>(value);
   };
-  h.width = next_number("width", 1L << 20);
-  h.height = next_number("height", 1L << 20);
+  h.width = next_number("width", kMaxImageSide);
+  h.height = next_number("height", kMaxImageSide);
   h.maxval = next_number("maxval", 65535);
   if (pos >= bytes.size() || !std::isspace(static_cast<unsigned char>(bytes[pos]))) {
     throw InputError(path + ": invalid or truncated PNM header (no whitespace after maxval)");
@@ -115,6 +115,25 @@ ImageU8 readPnm(const std::string& path) {
   return image;
 }
 
+// 16-bit gray PGM, values as stored.
+Image<uint16_t> readPgm16(const std::string& path) {
+  const std::string bytes = internal::readFileBytes(path);
+  const PnmHeader h = parsePnmHeader(bytes, path);
+  if (h.channels != 1 || h.maxval <= 255) {
+    throw InputError(path + ": expected a 16-bit gray PGM (P5, maxval > 255) for a depth map");
+  }
+  const size_t count = static_cast<size_t>(h.width) * h.height;
+  if (bytes.size() - h.data_offset < 2 * count) {
+    throw InputError(path + ": truncated PGM data");
+  }
+  Image<uint16_t> image(h.width, h.height, 1);
+  const auto* src = reinterpret_cast<const uint8_t*>(bytes.data() + h.data_offset);
+  for (size_t i = 0; i < count; ++i) {
+    image.data[i] = static_cast<uint16_t>((src[2 * i] << 8) | src[2 * i + 1]);  // big-endian
+  }
+  return image;
+}
+
 // ---- Header-only sizes -----------------------------------------------------
 
 uint32_t bigEndian32(const uint8_t* p) {
@@ -130,7 +149,7 @@ bool pngSize(const std::string& head, const std::string& path, int* w, int* h) {
   }
   const uint32_t width = bigEndian32(p + 16);
   const uint32_t height = bigEndian32(p + 20);
-  if (width == 0 || height == 0 || width > (1u << 20) || height > (1u << 20)) {
+  if (width == 0 || height == 0 || width > kMaxImageSide || height > kMaxImageSide) {
     throw InputError(path + ": corrupt PNG (invalid size " + std::to_string(width) + "x" +
                      std::to_string(height) + ")");
   }
@@ -192,10 +211,16 @@ bool bmpSize(const std::string& head, const std::string& path, int* w, int* h) {
   std::memcpy(&width, p + 18, 4);
   std::memcpy(&height, p + 22, 4);
   if (!internal::isLittleEndianHost()) return false;
-  if (height < 0) height = -height;  // negative height: rows stored top-down
-  if (width <= 0 || height <= 0) throw InputError(path + ": corrupt BMP (invalid size)");
+  // A negative height means rows stored top-down; widened first, because
+  // negating INT32_MIN in 32 bits is undefined.
+  const int64_t rows = height < 0 ? -int64_t{height} : int64_t{height};
+  if (width <= 0 || rows <= 0 || width > kMaxImageSide || rows > kMaxImageSide) {
+    throw InputError(path + ": corrupt BMP (invalid size " + std::to_string(width) + "x" +
+                     std::to_string(height) + "; each side must be 1.." +
+                     std::to_string(kMaxImageSide) + ")");
+  }
   *w = width;
-  *h = height;
+  *h = static_cast<int>(rows);
   return true;
 }
 
@@ -332,6 +357,16 @@ ImageU8 readImage(const std::string& path) {
                    ": this build has no PNG/JPEG decoder (built without OpenCV); convert the "
                    "image to binary PGM/PPM (e.g. `convert in.png out.ppm`) or rebuild with "
                    "OpenCV");
+#endif
+}
+
+Image<uint16_t> readImage16(const std::string& path) {
+  if (isPnmMagic(readHead(path, 2))) return readPgm16(path);
+#ifdef AMHMVS_WITH_OPENCV
+  return internal::readImage16OpenCv(path);
+#else
+  throw InputError(path + ": this build has no PNG decoder (built without OpenCV); convert the "
+                   "depth image to a 16-bit PGM or rebuild with OpenCV");
 #endif
 }
 

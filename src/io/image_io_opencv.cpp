@@ -11,19 +11,44 @@
 namespace amhmvs {
 namespace internal {
 
-ImageU8 readImageOpenCv(const std::string& path) {
-  // ANYCOLOR keeps gray images single-channel; without ANYDEPTH, 16-bit data is
-  // scaled to 8 bits. EXIF orientation is ignored so that the decoded size
-  // matches the header size that readImageSize() reports.
+namespace {
+
+// imread with errors as InputError naming the file.
+cv::Mat decode(const std::string& path, int flags) {
   cv::Mat mat;
   try {
-    mat = cv::imread(path, cv::IMREAD_ANYCOLOR | cv::IMREAD_IGNORE_ORIENTATION);
+    mat = cv::imread(path, flags);
   } catch (const cv::Exception& e) {
     throw InputError(path + ": image decoding failed (" + e.what() + ")");
   }
   if (mat.empty()) {
     throw InputError(path + ": cannot decode image (unsupported format or corrupt file)");
   }
+  return mat;
+}
+
+}  // namespace
+
+Image<uint16_t> readImage16OpenCv(const std::string& path) {
+  const cv::Mat mat = decode(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_IGNORE_ORIENTATION);
+  if (mat.depth() != CV_16U || mat.channels() != 1) {
+    throw InputError(path + ": expected a single-channel 16-bit image (a depth map), got " +
+                     std::to_string(mat.channels()) + " channel(s) of " +
+                     (mat.depth() == CV_8U ? "8" : "non-16") + "-bit samples");
+  }
+  Image<uint16_t> image(mat.cols, mat.rows, 1);
+  for (int y = 0; y < mat.rows; ++y) {
+    std::memcpy(&image.data[image.index(0, y)], mat.ptr<uint16_t>(y),
+                static_cast<size_t>(mat.cols) * sizeof(uint16_t));
+  }
+  return image;
+}
+
+ImageU8 readImageOpenCv(const std::string& path) {
+  // ANYCOLOR keeps gray images single-channel; without ANYDEPTH, 16-bit data is
+  // scaled to 8 bits. EXIF orientation is ignored so that the decoded size
+  // matches the header size that readImageSize() reports.
+  cv::Mat mat = decode(path, cv::IMREAD_ANYCOLOR | cv::IMREAD_IGNORE_ORIENTATION);
   // imread without ANYDEPTH already gives 8 bits; kept as a guard.
   if (mat.depth() == CV_16U) {
     cv::Mat converted;

@@ -15,5 +15,8 @@ namespace internal {
 // file when OpenCV cannot decode it.
 ImageU8 readImageOpenCv(const std::string& path);
 
+// Decodes a single-channel 16-bit image bit for bit (IMREAD_ANYDEPTH).
+Image<uint16_t> readImage16OpenCv(const std::string& path);
+
 }  // namespace internal
 }  // namespace amhmvs

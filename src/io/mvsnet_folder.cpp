@@ -331,7 +331,8 @@ Scene readMvsnetDenseFolder(const std::string& dir) {
     }
     view.camera.width = width;
     view.camera.height = height;
-    const std::string why = view.camera.validate();
+    std::string why = view.camera.validate();
+    if (why.empty()) why = conditioningProblem(view.camera, view.depth_min, view.depth_max);
     if (!why.empty()) throw InputError(cam_file + ": invalid camera: " + why);
     scene.views.push_back(view);
   }

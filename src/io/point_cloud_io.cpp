@@ -22,6 +22,8 @@ std::string PointCloud::validate() const {
     why << colors.size() << " colours for " << n << " points";
   } else if (!confidence.empty() && confidence.size() != n) {
     why << confidence.size() << " confidences for " << n << " points";
+  } else if (!counts.empty() && counts.size() != n) {
+    why << counts.size() << " counts for " << n << " points";
   } else {
     for (size_t i = 0; i < n; ++i) {
       if (!points[i].allFinite()) {
@@ -323,13 +325,29 @@ PointCloud readPly(const std::string& path) {
   const PlyElement& vertex = elements[vertex_index];
   const VertexLayout layout = vertexLayout(vertex, path);
 
+  if (vertex.count > kMaxPlyVertices) {
+    throw InputError(path + ": vertex count " + std::to_string(vertex.count) +
+                     " exceeds the reader's maximum of " + std::to_string(kMaxPlyVertices));
+  }
   PointCloud cloud;
-  cloud.points.reserve(vertex.count);
   std::vector<double> values(vertex.properties.size());
   if (format == "ascii") {
+    // Each vertex line holds at least one character and one separator per
+    // property: a count the file cannot hold is refused before allocating.
+    const size_t body_bytes = bytes.size() - data_start;
+    if (vertex.count > body_bytes / (2 * vertex.properties.size())) {
+      throw InputError(path + ": truncated: " + std::to_string(body_bytes) +
+                       " bytes of ASCII data cannot hold " + std::to_string(vertex.count) +
+                       " vertices");
+    }
+    cloud.points.reserve(vertex.count);
     std::istringstream body(bytes.substr(data_start));
     size_t skip = 0;  // lines of the elements before the vertex element
-    for (size_t i = 0; i < vertex_index; ++i) skip += elements[i].count;
+    for (size_t i = 0; i < vertex_index; ++i) {
+      if (!internal::checkedAdd(skip, elements[i].count, &skip)) {
+        throw InputError(path + ": element counts before the vertices overflow");
+      }
+    }
     for (size_t i = 0; i < skip && std::getline(body, line); ++i) {
     }
     for (size_t i = 0; i < vertex.count; ++i) {
@@ -364,13 +382,19 @@ PointCloud readPly(const std::string& path) {
                          "' before the vertices has list properties (not supported)");
       }
     }
-    offset += elements[i].count * elements[i].rowBytes();
+    size_t element_bytes = 0;
+    if (!internal::checkedMultiply(elements[i].count, elements[i].rowBytes(), &element_bytes) ||
+        !internal::checkedAdd(offset, element_bytes, &offset) || offset > bytes.size()) {
+      throw InputError(path + ": truncated: element '" + elements[i].name + "' claims " +
+                       std::to_string(elements[i].count) + " rows, more than the file holds");
+    }
   }
   const size_t row = vertex.rowBytes();
-  if (bytes.size() < offset || (bytes.size() - offset) / row < vertex.count) {
+  if ((bytes.size() - offset) / row < vertex.count) {
     throw InputError(path + ": truncated: binary data holds fewer than " +
                      std::to_string(vertex.count) + " vertices");
   }
+  cloud.points.reserve(vertex.count);
   for (size_t i = 0; i < vertex.count; ++i) {
     const char* data = bytes.data() + offset + i * row;
     for (size_t k = 0; k < vertex.properties.size(); ++k) {

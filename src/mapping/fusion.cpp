@@ -56,6 +56,17 @@ std::string FusionOptions::validate() const {
   return why.str();
 }
 
+FusionView DepthMapImages::borrow(int id, const PinholeCamera& camera) const {
+  FusionView view;
+  view.id = id;
+  view.camera = camera;
+  view.depth = depth;
+  view.normal = normal;
+  view.cost = cost;
+  view.color = color;
+  return view;
+}
+
 size_t FusionResult::pointCount() const {
   size_t n = 0;
   for (const FusedViewPoints& v : views) n += v.points.size();
@@ -138,7 +149,7 @@ struct PreparedView {
     return Rt * (view->camera.backproject(x, y, depth) - t);
   }
   Eigen::Vector3d color(int x, int y) const {
-    const ImageU8& c = view->color;
+    const ImageViewU8& c = view->color;
     if (c.channels == 1) return Eigen::Vector3d::Constant(c.at(x, y));
     return {static_cast<double>(c.at(x, y, 0)), static_cast<double>(c.at(x, y, 1)),
             static_cast<double>(c.at(x, y, 2))};
@@ -187,7 +198,7 @@ class ReferenceFuser {
 
   // Fuses reference pixel (x, y); appends the sources' used pixels to
   // `support` when a point is emitted.
-  bool fusePixel(const PreparedView& ref, int x, int y, FusedPoint* out,
+  bool fusePixel(const PreparedView& ref, int x, int y, KeyframePoint* out,
                  std::vector<Support>* support) const {
     double depth;
     Eigen::Vector3d normal;
@@ -263,9 +274,9 @@ class ReferenceFuser {
     out->normal = mean_normal.cast<float>();
     const Eigen::Vector3d color = colored ? Eigen::Vector3d(sum_color / colored)
                                           : Eigen::Vector3d::Constant(128);
-    out->r = toByte(color.x());
-    out->g = toByte(color.y());
-    out->b = toByte(color.z());
+    out->rgb[0] = toByte(color.x());
+    out->rgb[1] = toByte(color.y());
+    out->rgb[2] = toByte(color.z());
     out->consistent_views = static_cast<uint16_t>(consistent);
     out->confidence = visible ? static_cast<float>(consistent) / visible : 0.0f;
     return true;
@@ -303,11 +314,17 @@ FusionResult fuseDepthMaps(const std::vector<FusionView>& input, const FusionOpt
       if (options.max_sources > 0 && static_cast<int>(sources.size()) >= options.max_sources) break;
       sources.push_back(index_of_id.at(id));
     }
+    if (sources.size() < static_cast<size_t>(options.min_consistent_views)) {
+      // No pixel can reach min_consistent_views (e.g. a view that only
+      // supports others): it emits nothing and marks nothing.
+      result.views.push_back({view.id, view.camera, {}});
+      continue;
+    }
     const ReferenceFuser fuser(views, sources, options);
     const int width = view.camera.width, height = view.camera.height;
 
     // Rows in parallel, each with its own output; concatenated in row order.
-    std::vector<std::vector<FusedPoint>> row_points(height);
+    std::vector<std::vector<KeyframePoint>> row_points(height);
     std::vector<std::vector<Support>> row_support(height);
     std::vector<size_t> row_candidates(height, 0);
 #pragma omp parallel for schedule(dynamic, 4)
@@ -319,7 +336,7 @@ FusionResult fuseDepthMaps(const std::vector<FusionView>& input, const FusionOpt
         Eigen::Vector3d normal;
         if (!ref.pixel(x, y, options.max_cost, &depth, &normal)) continue;
         ++row_candidates[y];
-        FusedPoint point;
+        KeyframePoint point;
         if (!fuser.fusePixel(ref, x, y, &point, &row_support[y])) continue;
         row_points[y].push_back(point);
         if (options.fuse_each_pixel_once) row_support[y].push_back({static_cast<int>(r),
@@ -341,8 +358,8 @@ FusionResult fuseDepthMaps(const std::vector<FusionView>& input, const FusionOpt
   return result;
 }
 
-FusedPoint toWorld(const FusedPoint& point, const PinholeCamera& camera) {
-  FusedPoint out = point;
+KeyframePoint toWorld(const KeyframePoint& point, const PinholeCamera& camera) {
+  KeyframePoint out = point;
   const Eigen::Matrix3d Rt = camera.R.transpose();
   out.position = (Rt * (point.position.cast<double>() - camera.t)).cast<float>();
   out.normal = (Rt * point.normal.cast<double>()).cast<float>();
@@ -357,11 +374,11 @@ PointCloud worldCloud(const FusionResult& result) {
   cloud.colors.reserve(n);
   cloud.confidence.reserve(n);
   for (const FusedViewPoints& view : result.views) {
-    for (const FusedPoint& p : view.points) {
-      const FusedPoint w = toWorld(p, view.camera);
+    for (const KeyframePoint& p : view.points) {
+      const KeyframePoint w = toWorld(p, view.camera);
       cloud.points.push_back(w.position);
       cloud.normals.push_back(w.normal);
-      cloud.colors.push_back({w.r, w.g, w.b});
+      cloud.colors.push_back({w.rgb[0], w.rgb[1], w.rgb[2]});
       cloud.confidence.push_back(w.confidence);
     }
   }

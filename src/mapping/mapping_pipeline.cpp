@@ -14,6 +14,22 @@ double steadySeconds() {
 
 std::string keyframeName(int64_t id) { return "keyframe " + std::to_string(id); }
 
+// What a reset keeps: the backend and the drop counts (lifetime: a reset
+// does not hide lost input).
+PipelineStats statsAfterReset(const PipelineStats& old) {
+  PipelineStats fresh;
+  fresh.backend = old.backend;
+  fresh.dropped_queue_full = old.dropped_queue_full;
+  fresh.dropped_invalid = old.dropped_invalid;
+  fresh.dropped_backend_error = old.dropped_backend_error;
+  fresh.dropped_processing_error = old.dropped_processing_error;
+  fresh.late_estimate_failed = old.late_estimate_failed;
+  fresh.refinement_estimate_failed = old.refinement_estimate_failed;
+  fresh.bad_pose_updates = old.bad_pose_updates;
+  fresh.bad_reconfigurations = old.bad_reconfigurations;
+  return fresh;
+}
+
 }  // namespace
 
 const std::vector<PipelineStatField>& pipelineStatFields() {
@@ -194,9 +210,7 @@ size_t MappingPipeline::requestReset() {
     // Counters restart at once (diagnostics show the reset immediately); the
     // worker forgets the keyframes and the map at its next step.
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    PipelineStats fresh;
-    fresh.backend = stats_.backend;
-    stats_ = fresh;
+    stats_ = statsAfterReset(stats_);
   }
   queue_cv_.notify_all();
   return discarded;
@@ -244,9 +258,7 @@ void MappingPipeline::applyPending() {
     mapper_->reset();
     if (estimator_) estimator_->forgetAll();  // keyframe ids may be reused
     std::lock_guard<std::mutex> stats(stats_mutex_);
-    PipelineStats fresh;
-    fresh.backend = stats_.backend;
-    stats_ = fresh;
+    stats_ = statsAfterReset(stats_);
   }
   if (next) {
     try {

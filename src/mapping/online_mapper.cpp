@@ -24,6 +24,8 @@ bool hasDepthAndNormals(const StoredKeyframe& stored) {
   return stored.state == KeyframeState::kDone && !stored.depth.depth.empty() && stored.depth.normal.channels == 3;
 }
 
+// Borrows the stored keyframe's maps and image (no copy): the store keeps
+// them while fusion runs.
 FusionView fusionView(int local_id, const StoredKeyframe& stored) {
   FusionView view;
   view.id = local_id;
@@ -220,7 +222,9 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
     if (fused.consistency_ids.size() < required) continue;
     waiting_.erase(std::find(waiting_.begin(), waiting_.end(), id));
     fused.id = id;
-    fused.again = map_.contains(id);
+    EstimateRecord& record = estimates_[id];
+    fused.again = record.fused;
+    record.fused = true;
     fused.stamp = store_.keyframe(id).stamp;
     fused.camera = store_.keyframe(id).camera;
     Clock::time_point start = Clock::now();
@@ -231,7 +235,7 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
       noteEvicted(store_.attachPoints(id, fused.points), result);
       fused.map_update = map_.addKeyframe(id, store_.keyframe(id).cameraToWorld(), fused.points);  // replaces
       ++map_revision_;
-    } else if (fused.again) {
+    } else if (map_.contains(id)) {
       map_.removeKeyframe(id);  // the refined depth map confirms nothing of the old points
       ++map_revision_;
     }
@@ -265,7 +269,7 @@ KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& view_i
   views.push_back(std::move(reference));
   // min_consistent_views as configured: never fewer than asked for.
   const FusionResult fused = fuseDepthMaps(views, options_.fusion);
-  return toKeyframePoints(fused.views.back().points);
+  return fused.views.back().points;
 }
 
 bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world) {

@@ -152,6 +152,7 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
   contribution.camera_to_world = camera_to_world;
   std::vector<PlacedPoint> placed;
   placed.reserve(points.size());
+  contribution.points.reserve(points.size());
   for (const KeyframePoint& point : points) {
     PlacedPoint p;
     if (!place(camera_to_world, point, &p)) {
@@ -182,7 +183,10 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
                              keyframes_.size() + 1 > options_.max_keyframes)) {
     evictOldest(&update);
   }
-  while (!order_.empty() && voxels_.size() + newVoxelsNeeded() > options_.max_voxels) {
+  // The set of new voxels is counted only when all points in new voxels
+  // might not fit (counting it is most of an insert's time).
+  while (!order_.empty() && voxels_.size() + placed.size() > options_.max_voxels &&
+         voxels_.size() + newVoxelsNeeded() > options_.max_voxels) {
     evictOldest(&update);
   }
 
@@ -275,17 +279,17 @@ size_t VoxelMap::memoryBytes() const {
   return voxel_bytes + point_bytes + keyframe_bytes;
 }
 
-MapCloud VoxelMap::exportCloud() const {
+PointCloud VoxelMap::exportCloud() const {
   std::vector<uint64_t> keys;
   keys.reserve(voxels_.size());
   for (const auto& entry : voxels_) keys.push_back(entry.first);
   std::sort(keys.begin(), keys.end());
 
-  MapCloud cloud;
-  cloud.positions.reserve(keys.size());
+  PointCloud cloud;
+  cloud.points.reserve(keys.size());
   cloud.normals.reserve(keys.size());
   cloud.colors.reserve(keys.size());
-  cloud.confidences.reserve(keys.size());
+  cloud.confidence.reserve(keys.size());
   cloud.counts.reserve(keys.size());
   for (uint64_t key : keys) {
     const Voxel& voxel = voxels_.at(key);
@@ -299,12 +303,12 @@ MapCloud VoxelMap::exportCloud() const {
                                       : Eigen::Vector3d::Zero();
     const Eigen::Vector3f position_f = position.cast<float>();
     if (!position_f.allFinite()) continue;  // cannot happen for finite input; never emit it
-    cloud.positions.push_back(position_f);
+    cloud.points.push_back(position_f);
     cloud.normals.push_back(normal.cast<float>());
-    cloud.colors.emplace_back(clampColor(voxel.rgb_sum[0] / n), clampColor(voxel.rgb_sum[1] / n),
-                              clampColor(voxel.rgb_sum[2] / n));
+    cloud.colors.push_back({clampColor(voxel.rgb_sum[0] / n), clampColor(voxel.rgb_sum[1] / n),
+                            clampColor(voxel.rgb_sum[2] / n)});
     const double confidence = voxel.confidence_sum / n;
-    cloud.confidences.push_back(std::isfinite(confidence) ? static_cast<float>(confidence) : 0.f);
+    cloud.confidence.push_back(std::isfinite(confidence) ? static_cast<float>(confidence) : 0.f);
     cloud.counts.push_back(voxel.count);
   }
   return cloud;

@@ -131,6 +131,9 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
   read(pnh, "max_image_size", &c.max_image_size);
   read(pnh, "map_publish_period", &c.map_publish_period);
   read(pnh, "diagnostics_period", &c.diagnostics_period);
+  read(pnh, "silence_timeout", &c.silence_timeout);
+  read(pnh, "drop_warning_window", &c.drop_warning_window);
+  read(pnh, "map_directory", &c.map_directory);
   readMapperOptions(pnh, &c.mapper);
 
   if (c.input_mode != "pose" && c.input_mode != "odometry" && c.input_mode != "tf" && c.input_mode != "keyframe") {
@@ -166,6 +169,9 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
           defaults.map_publish_period);
   require(c.diagnostics_period > 0, "diagnostics_period must be > 0", c.diagnostics_period,
           defaults.diagnostics_period);
+  require(c.silence_timeout > 0, "silence_timeout must be > 0", c.silence_timeout, defaults.silence_timeout);
+  require(c.drop_warning_window > 0, "drop_warning_window must be > 0", c.drop_warning_window,
+          defaults.drop_warning_window);
 
   requireValid("store", &c.mapper.store, defaults.mapper.store, &err);
   requireValid("sources", &c.mapper.sources, defaults.mapper.sources, &err);

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include <boost/make_shared.hpp>
+#include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 
@@ -17,37 +18,47 @@ namespace amhmvs_mapping {
 
 namespace enc = sensor_msgs::image_encodings;
 
+// The encodings read, and what each becomes: grey stays grey (1 channel),
+// colour and Bayer mosaics become RGB (cv_bridge converts and debayers).
 bool supportedEncoding(const std::string& encoding) {
-  return encoding == enc::MONO8 || encoding == enc::RGB8 || encoding == enc::BGR8;
+  static const std::string* const kSupported[] = {&enc::MONO8,       &enc::MONO16,      &enc::RGB8,
+                                                  &enc::BGR8,        &enc::RGBA8,       &enc::BGRA8,
+                                                  &enc::BAYER_RGGB8, &enc::BAYER_BGGR8, &enc::BAYER_GBRG8,
+                                                  &enc::BAYER_GRBG8};
+  for (const std::string* supported : kSupported)
+    if (encoding == *supported) return true;
+  return false;
 }
 
 std::string imageFromMsg(const sensor_msgs::Image& msg, amhmvs::ImageU8* image) {
   if (!supportedEncoding(msg.encoding))
-    return "unsupported encoding '" + msg.encoding + "' (mono8, rgb8 or bgr8)";
-  const int channels = msg.encoding == enc::MONO8 ? 1 : 3;
+    return "unsupported encoding '" + msg.encoding + "' (mono8, mono16, rgb8, bgr8, rgba8, bgra8, bayer_*8)";
   if (msg.width == 0 || msg.height == 0) return "empty image";
-  const size_t row_bytes = static_cast<size_t>(msg.width) * channels;
-  if (msg.step < row_bytes || msg.data.size() < static_cast<size_t>(msg.step) * msg.height) {
+  // cv_bridge trusts step and the data length: check them first.
+  const size_t channel_bytes = enc::bitDepth(msg.encoding) / 8;
+  const size_t row_bytes = static_cast<size_t>(msg.width) * enc::numChannels(msg.encoding) * channel_bytes;
+  if (msg.step < row_bytes || msg.step % channel_bytes != 0 ||
+      msg.data.size() < static_cast<size_t>(msg.step) * msg.height) {
     std::ostringstream out;
-    out << "image data does not match its size: " << msg.width << "x" << msg.height << " step "
-        << msg.step << ", " << msg.data.size() << " bytes";
+    out << "image data does not match its size: " << msg.width << "x" << msg.height << " " << msg.encoding
+        << " step " << msg.step << ", " << msg.data.size() << " bytes";
     return out.str();
   }
-  *image = amhmvs::ImageU8(msg.width, msg.height, channels);
-  const bool swap = msg.encoding == enc::BGR8;
-  for (uint32_t y = 0; y < msg.height; ++y) {
-    const uint8_t* row = msg.data.data() + static_cast<size_t>(y) * msg.step;
-    uint8_t* out = image->data.data() + y * row_bytes;
-    if (!swap) {
-      std::memcpy(out, row, row_bytes);
-    } else {
-      for (uint32_t x = 0; x < msg.width; ++x) {
-        out[3 * x] = row[3 * x + 2];
-        out[3 * x + 1] = row[3 * x + 1];
-        out[3 * x + 2] = row[3 * x];
-      }
-    }
+  const bool grey = msg.encoding == enc::MONO8 || msg.encoding == enc::MONO16;
+  cv_bridge::CvImageConstPtr converted;
+  try {
+    converted = cv_bridge::toCvCopy(msg, grey ? enc::MONO8 : enc::RGB8);
+  } catch (const cv_bridge::Exception& e) {
+    return std::string("cv_bridge: ") + e.what();
+  } catch (const cv::Exception& e) {
+    return std::string("OpenCV: ") + e.what();
   }
+  const cv::Mat& mat = converted->image;
+  const int channels = mat.channels();
+  *image = amhmvs::ImageU8(mat.cols, mat.rows, channels);
+  for (int y = 0; y < mat.rows; ++y)
+    std::memcpy(image->data.data() + static_cast<size_t>(y) * mat.cols * channels, mat.ptr<uint8_t>(y),
+                static_cast<size_t>(mat.cols) * channels);
   return "";
 }
 
@@ -178,20 +189,24 @@ sensor_msgs::ImagePtr depthPreviewMsg(const amhmvs::ImageF& depth, const std_msg
   return msg;
 }
 
-amhmvs::MapCloud keyframeCloud(const amhmvs::KeyframePoints& points) {
-  amhmvs::MapCloud cloud;
+amhmvs::PointCloud keyframeCloud(const amhmvs::KeyframePoints& points) {
+  amhmvs::PointCloud cloud;
+  cloud.points.reserve(points.size());
+  cloud.normals.reserve(points.size());
+  cloud.colors.reserve(points.size());
+  cloud.confidence.reserve(points.size());
   for (const amhmvs::KeyframePoint& point : points) {
-    cloud.positions.push_back(point.position);
+    cloud.points.push_back(point.position);
     cloud.normals.push_back(point.normal);
-    cloud.colors.emplace_back(point.rgb[0], point.rgb[1], point.rgb[2]);
-    cloud.confidences.push_back(point.confidence);
-    cloud.counts.push_back(1);
+    cloud.colors.push_back({point.rgb[0], point.rgb[1], point.rgb[2]});
+    cloud.confidence.push_back(point.confidence);
   }
   return cloud;
 }
 
-sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::MapCloud& cloud, const std_msgs::Header& header) {
-  auto finite = [&](size_t i) { return cloud.positions[i].allFinite() && cloud.normals[i].allFinite(); };
+sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::PointCloud& cloud, const std_msgs::Header& header) {
+  const bool has_normals = cloud.normals.size() == cloud.size(), has_colors = cloud.colors.size() == cloud.size();
+  auto finite = [&](size_t i) { return cloud.points[i].allFinite() && (!has_normals || cloud.normals[i].allFinite()); };
   size_t count = 0;
   for (size_t i = 0; i < cloud.size(); ++i) count += finite(i);
 
@@ -213,17 +228,18 @@ sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::MapCloud& cloud, const std_ms
   sensor_msgs::PointCloud2Iterator<float> it_nx(*msg, "normal_x"), it_ny(*msg, "normal_y"), it_nz(*msg, "normal_z");
   for (size_t i = 0; i < cloud.size(); ++i) {
     if (!finite(i)) continue;  // never a NaN in a cloud
-    *it_x = cloud.positions[i].x();
-    *it_y = cloud.positions[i].y();
-    *it_z = cloud.positions[i].z();
-    const auto& c = cloud.colors[i];
+    *it_x = cloud.points[i].x();
+    *it_y = cloud.points[i].y();
+    *it_z = cloud.points[i].z();
+    const std::array<uint8_t, 3> c = has_colors ? cloud.colors[i] : std::array<uint8_t, 3>{0, 0, 0};
     const uint32_t packed = (uint32_t{c[0]} << 16) | (uint32_t{c[1]} << 8) | c[2];
     float packed_float;
     std::memcpy(&packed_float, &packed, sizeof(float));
     *it_rgb = packed_float;
-    *it_nx = cloud.normals[i].x();
-    *it_ny = cloud.normals[i].y();
-    *it_nz = cloud.normals[i].z();
+    const Eigen::Vector3f normal = has_normals ? cloud.normals[i] : Eigen::Vector3f::Zero();
+    *it_nx = normal.x();
+    *it_ny = normal.y();
+    *it_nz = normal.z();
     ++it_x, ++it_y, ++it_z, ++it_rgb, ++it_nx, ++it_ny, ++it_nz;
   }
   return msg;

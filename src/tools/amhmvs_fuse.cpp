@@ -116,26 +116,34 @@ amhmvs::FusionOptions parseOptions(const std::vector<std::string>& args) {
   return options;
 }
 
+// One view's depth output as read from its folder.
+struct DepthView {
+  int id = -1;
+  amhmvs::PinholeCamera camera;
+  amhmvs::DepthMapImages images;
+};
+
 // Reads one view's depth output; false when the view has no depth map.
-bool readDepthView(const std::string& depth_dir, const amhmvs::SceneView& scene_view,
-                   amhmvs::FusionView* view, bool* color_warned) {
+bool readDepthView(const std::string& depth_dir, const amhmvs::SceneView& scene_view, DepthView* view,
+                   bool* color_warned) {
   const std::string folder = viewFolder(depth_dir, scene_view.id);
   if (!fs::exists(folder + "/depth.pfm")) return false;
   view->id = scene_view.id;
-  view->depth = amhmvs::readPfm(folder + "/depth.pfm");
-  view->normal = amhmvs::readPfm(folder + "/normal.pfm");
-  if (fs::exists(folder + "/cost.pfm")) view->cost = amhmvs::readPfm(folder + "/cost.pfm");
+  amhmvs::DepthMapImages& images = view->images;
+  images.depth = amhmvs::readPfm(folder + "/depth.pfm");
+  images.normal = amhmvs::readPfm(folder + "/normal.pfm");
+  if (fs::exists(folder + "/cost.pfm")) images.cost = amhmvs::readPfm(folder + "/cost.pfm");
   double depth_min, depth_max;
   amhmvs::readMvsnetCam(folder + "/cam.txt", &view->camera, &depth_min, &depth_max);
   // cam.txt holds the camera at the depth map's resolution, without the size.
-  view->camera.width = view->depth.width;
-  view->camera.height = view->depth.height;
+  view->camera.width = images.depth.width;
+  view->camera.height = images.depth.height;
   try {
     amhmvs::ImageU8 image = amhmvs::readImage(scene_view.image_path);
-    if (!image.sameSize(view->depth.width, view->depth.height)) {
-      image = amhmvs::resizeArea(image, view->depth.width, view->depth.height);
+    if (!image.sameSize(images.depth.width, images.depth.height)) {
+      image = amhmvs::resizeArea(image, images.depth.width, images.depth.height);
     }
-    view->color = std::move(image);
+    images.color = std::move(image);
   } catch (const InputError& e) {
     // Colour is a nicety: fuse without it rather than fail.
     if (!*color_warned) std::cerr << "amhmvs_fuse: warning: no colours: " << e.what() << "\n";
@@ -158,14 +166,14 @@ int run(const std::vector<std::string>& args) {
   if (!fs::is_directory(depth_dir)) throw InputError(depth_dir + ": depth folder not found");
   const amhmvs::Scene scene = amhmvs::readMvsnetDenseFolder(dense_dir);
 
-  std::vector<amhmvs::FusionView> views;
+  std::vector<DepthView> read;  // owns the images the fusion views borrow
   bool color_warned = false;
   for (const amhmvs::SceneView& scene_view : scene.views) {
-    amhmvs::FusionView view;
-    if (readDepthView(depth_dir, scene_view, &view, &color_warned)) {
-      views.push_back(std::move(view));
-    }
+    DepthView view;
+    if (readDepthView(depth_dir, scene_view, &view, &color_warned)) read.push_back(std::move(view));
   }
+  std::vector<amhmvs::FusionView> views;
+  for (const DepthView& view : read) views.push_back(view.images.borrow(view.id, view.camera));
   if (views.empty()) {
     throw InputError(depth_dir + ": no depth maps (<8-digit id>/depth.pfm) for the views of " +
                      dense_dir);

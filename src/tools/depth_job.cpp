@@ -2,9 +2,12 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <future>
 #include <iostream>
 #include <memory>
@@ -12,12 +15,14 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
+#include "amhmvs_mapping/eval/ground_truth_depth.h"
 #include "amhmvs_mapping/io/background_writer.h"
 #include "amhmvs_mapping/io/colmap_model.h"
 #include "amhmvs_mapping/io/colormap.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"
+#include "tool_options.h"
 
 namespace amhmvs {
 namespace {
@@ -36,7 +41,11 @@ void makeDirectories(const std::string& path) {
     if (pos == path.size() || path[pos] == '/') {
       const std::string prefix = path.substr(0, pos);
       if (!isDirectory(prefix) && mkdir(prefix.c_str(), 0755) != 0 && !isDirectory(prefix)) {
-        throw InputError(prefix + ": cannot create directory");
+        // errno says why: a file in the way, no permission, a read-only file
+        // system, a missing parent.
+        const std::string why =
+            errno == EEXIST ? "a file that is not a directory is in the way" : std::strerror(errno);
+        throw InputError(prefix + ": cannot create directory (" + why + ")");
       }
     }
   }
@@ -48,19 +57,30 @@ std::string viewFolderName(int view_id) {
   return name;
 }
 
-// Ground truth sampled at the processed resolution (nearest pixel).
-ImageF groundTruthAt(const std::string& path, int width, int height) {
-  const ImageF full = readPfm(path);
-  if (full.sameSize(width, height)) return full;
-  ImageF out(width, height);
-  for (int y = 0; y < height; ++y) {
-    const int sy = std::min(full.height - 1, static_cast<int>((y + 0.5) * full.height / height));
-    for (int x = 0; x < width; ++x) {
-      const int sx = std::min(full.width - 1, static_cast<int>((x + 0.5) * full.width / width));
-      out.at(x, y) = full.at(sx, sy);
+// Every view at its processed size, and every reference view with the depth
+// range it will use, checked before any work: a problem names the view id
+// (the estimator would only know "source view <index>") and nothing is written.
+void checkViewsBeforeEstimating(const Scene& scene, const std::vector<int>& reference_ids,
+                                const ProblemOptions& options) {
+  for (const SceneView& view : scene.views) {
+    int width, height;
+    scaledSize(view.camera.width, view.camera.height, options, &width, &height);
+    const std::string why = view.camera.resized(width, height).validate();
+    if (!why.empty()) {
+      throw InputError("view " + std::to_string(view.id) + " (" + view.image_path + ") at " +
+                       std::to_string(width) + "x" + std::to_string(height) + ": " + why);
     }
   }
-  return out;
+  if (options.depth_min <= 0) return;  // the views' own ranges were checked at load
+  for (const int id : reference_ids) {
+    const int index = scene.indexOf(id);
+    if (index < 0) continue;  // reported by makeDepthProblem
+    const std::string why =
+        conditioningProblem(scene.views[index].camera, options.depth_min, options.depth_max);
+    if (!why.empty()) {
+      throw InputError("view " + std::to_string(id) + " with --depth_min/--depth_max: " + why);
+    }
+  }
 }
 
 }  // namespace
@@ -138,6 +158,7 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
     }
   }
   if (ids.empty()) throw InputError(input_dir + ": no view has source views");
+  checkViewsBeforeEstimating(scene, ids, options.problem);
   // Each image is read once and, on the GPU, uploaded once (view ids are the
   // image keys); an image the cache drops leaves the device too.
   SceneImageCache images(scene, options.problem);
@@ -175,9 +196,10 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
     ++written;
     std::string accuracy;
     if (!options.ground_truth_dir.empty()) {
+      // Ground truth sampled at the processed resolution (nearest pixel).
       const ImageF truth =
-          groundTruthAt(options.ground_truth_dir + "/" + viewFolderName(ids[i]) + ".pfm",
-                        map.depth.width, map.depth.height);
+          resampleNearest(readPfm(options.ground_truth_dir + "/" + viewFolderName(ids[i]) + ".pfm"),
+                          map.depth.width, map.depth.height);
       const AccuracyCounts counts = denseDepthAccuracy(map.depth, truth, nullptr);
       pooled.merge(counts);
       accuracy = ", within 1/2/5 % of ground truth: " + counts.percentages() + " %";
@@ -218,65 +240,75 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
 
 namespace {
 
-template <typename T>
-T parseValue(const std::string& option, const std::string& text) {
-  std::istringstream in(text);
-  T value;
-  if (!(in >> value) || !(in >> std::ws).eof()) {
-    throw InputError("option --" + option + ": '" + text + "' is not a valid value");
-  }
-  return value;
-}
-
 std::vector<int> parseIdList(const std::string& text) {
   std::vector<int> ids;
   std::istringstream in(text);
   std::string item;
-  while (std::getline(in, item, ',')) ids.push_back(parseValue<int>("views", item));
+  while (std::getline(in, item, ',')) {
+    const int id = parseValue<int>("views", item);
+    if (id < 0) throw InputError("option --views: view id " + item + " is negative");
+    if (std::find(ids.begin(), ids.end(), id) != ids.end()) {
+      throw InputError("option --views: view " + item + " is listed twice");
+    }
+    ids.push_back(id);
+  }
+  if (ids.empty()) throw InputError("option --views: no view id given");
   return ids;
+}
+
+// Values that parse but mean nothing: refused rather than silently ignored.
+void checkOptionMeanings(const DepthJobOptions& options, bool depth_min_given,
+                         bool depth_max_given) {
+  const ProblemOptions& p = options.problem;
+  if (depth_min_given != depth_max_given) {
+    throw InputError("options --depth_min and --depth_max must be given together");
+  }
+  if (depth_min_given &&
+      !(p.depth_min >= kMinDepth && p.depth_max <= kMaxDepth && p.depth_min < p.depth_max)) {
+    std::ostringstream why;
+    why << "invalid depth range: options --depth_min " << p.depth_min << " --depth_max " << p.depth_max
+        << ": need " << kMinDepth << " <= depth_min < depth_max <= " << kMaxDepth;
+    throw InputError(why.str());
+  }
+  // The estimator's window is 11x11 px by default: a smaller image has no
+  // pixel whose window fits (the nodelet has the same floor).
+  if (p.max_image_size != 0 && p.max_image_size < kMinMaxImageSize) {
+    throw InputError("option --max_image_size " + std::to_string(p.max_image_size) +
+                     ": must be 0 (no limit) or >= " + std::to_string(kMinMaxImageSize));
+  }
+  if (!(std::isfinite(options.max_cost) && options.max_cost >= 0)) {
+    throw InputError("option --max_cost " + std::to_string(options.max_cost) +
+                     ": must be > 0 (a cost threshold) or 0 (no mask)");
+  }
 }
 
 }  // namespace
 
 DepthJobOptions parseDepthJobArguments(const std::vector<std::string>& arguments) {
   DepthJobOptions options;
+  bool depth_min_given = false, depth_max_given = false;
   for (size_t i = 0; i < arguments.size(); ++i) {
-    const std::string& arg = arguments[i];
-    if (arg == "--quiet") {
-      options.quiet = true;
-      continue;
-    }
-    if (arg.rfind("--", 0) != 0) throw InputError("unexpected argument '" + arg + "'");
-    std::string name = arg.substr(2), value;
-    const size_t eq = name.find('=');
-    if (eq != std::string::npos) {
-      value = name.substr(eq + 1);
-      name = name.substr(0, eq);
-    } else if (i + 1 < arguments.size()) {
-      value = arguments[++i];
-    } else {
-      throw InputError("option --" + name + " needs a value");
-    }
-    if (name == "views") options.reference_ids = parseIdList(value);
+    std::string name, value;
+    nextOption(arguments, &i, {"quiet"}, &name, &value);
+    if (name == "quiet") options.quiet = parseSwitch(name, value);
+    else if (name == "views") options.reference_ids = parseIdList(value);
     else if (name == "num_sources") options.problem.max_sources = parseValue<int>(name, value);
     else if (name == "max_image_size") options.problem.max_image_size = parseValue<int>(name, value);
     else if (name == "scale") options.problem.scale = parseValue<double>(name, value);
-    else if (name == "depth_min") options.problem.depth_min = parseValue<double>(name, value);
-    else if (name == "depth_max") options.problem.depth_max = parseValue<double>(name, value);
+    else if (name == "depth_min") {
+      options.problem.depth_min = parseValue<double>(name, value);
+      depth_min_given = true;
+    } else if (name == "depth_max") {
+      options.problem.depth_max = parseValue<double>(name, value);
+      depth_max_given = true;
+    }
     else if (name == "backend") options.backend = parseBackend(value);
     else if (name == "max_cost") options.max_cost = parseValue<float>(name, value);
     else if (name == "ground_truth") options.ground_truth_dir = value;
-    else {
-      bool known = false;
-      for (const OptionInfo& info : patchMatchOptionTable()) {
-        if (info.name == name) {
-          info.set(options.patchmatch, value);
-          known = true;
-        }
-      }
-      if (!known) throw InputError("unknown option --" + name + " (see --help)");
-    }
+    else if (!setPatchMatchOption(name, value, &options.patchmatch))
+      throw InputError("unknown option --" + name + " (see --help)");
   }
+  checkOptionMeanings(options, depth_min_given, depth_max_given);
   const std::string problems = options.problem.validate() + options.patchmatch.validate();
   if (!problems.empty()) throw InputError("invalid options:\n" + problems);
   return options;

@@ -16,6 +16,9 @@ namespace amhmvs {
 // workspace (sparse/ and images/); throws InputError otherwise.
 Scene readInputFolder(const std::string& dir, int max_sources);
 
+// The smallest non-zero --max_image_size: the default 11x11 window must fit.
+constexpr int kMinMaxImageSize = 16;
+
 struct DepthJobOptions {
   ProblemOptions problem;
   PatchMatchOptions patchmatch;

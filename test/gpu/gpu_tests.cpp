@@ -4,9 +4,9 @@
 //  - CPU and GPU agree on real scenes (fraction of pixels within 0.1 % depth);
 //  - accuracy on the real data with the paper's defaults, against the public
 //    implementation's numbers (floors), on both backends;
-//  - the online mapping core that the nodelet runs (OnlineMapper with the
-//    nodelet's CUDA-first FallbackEstimator: late depth maps, refinement,
-//    deferred fusion) on the fountain views in order, fed like a SLAM
+//  - the online mapping pipeline that the nodelet runs (MappingPipeline:
+//    CUDA with its CPU fallback, late depth maps, refinement, deferred
+//    fusion) on the fountain views in order, fed like a SLAM
 //    adapter's keyframes (image, pose, the sparse points each view observes),
 //    at the estimator's settings: its depth maps against the same floors;
 //  - the resident image pool of the CUDA backend: same bytes with and without
@@ -27,8 +27,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
 #include "amhmvs_mapping/io/image_io.h"
-#include "amhmvs_mapping/mapping/fallback_estimator.h"
-#include "amhmvs_mapping/mapping/online_mapper.h"
+#include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mvs/cpu_sampler.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 #include "depth_job.h"
@@ -172,37 +171,38 @@ void fountain(const std::string& data, Backend backend) {
               kFountainFloors);
 }
 
-// The fountain views as keyframes in order through OnlineMapper on the GPU,
-// the nodelet's worker loop: each keyframe, then one late depth map, then
-// refinements while there are any (the GPU keeps up, so the queue is empty).
-// `check`: against the estimator's floors (else reported only).
-void onlineMapperFountain(const std::string& data, const std::string& label, const OnlineMapperOptions& options,
+// The fountain views as keyframes in order through the nodelet's pipeline
+// (MappingPipeline: CUDA with its CPU fallback, late depth maps, refinement)
+// on the GPU, pushed one at a time as a SLAM front end would, each followed
+// by steps until the pipeline is idle (the GPU keeps up, so the queue stays
+// empty). `check`: against the estimator's floors (else reported only).
+void onlineMapperFountain(const std::string& data, const std::string& label, const OnlineMapperOptions& mapper_options,
                           bool check) {
   const std::string folder = data + "/mvsnet/fountain_x0.25";
   const Scene scene = readInputFolder(folder, 10);
   const std::vector<SparsePoint> points = readSparsePoints(folder + "/sparse_points.txt");
-  const DepthEstimator gpu(PatchMatchOptions(), Backend::kCuda);  // paper defaults: 6 iterations
-  const DepthEstimator cpu(PatchMatchOptions(), Backend::kCpu);
-  FallbackEstimator estimate([&](const DepthProblem& p) { return gpu.estimate(p); },
-                             [&](const DepthProblem& p) { return cpu.estimate(p); }, 3,
-                             [](const std::string& line) { std::printf("INFO  fallback: %s\n", line.c_str()); });
-  int estimates = 0;
-  double ms = 0;
-  OnlineMapper mapper(options, [&](const DepthProblem& p) {
-    DepthMap map = estimate(p);
-    ++estimates;
-    ms += map.milliseconds;
-    return map;
+  PipelineOptions options;
+  options.mapper = mapper_options;  // estimator: the paper's defaults, 6 iterations
+  options.backend = Backend::kCuda;
+  MappingPipeline pipeline(options, [](MappingPipeline::LogLevel, const std::string& line) {
+    std::printf("INFO  pipeline: %s\n", line.c_str());
   });
+  int estimates = 0, on_cpu = 0;
+  double ms = 0;
   std::map<int64_t, DepthMap> latest;
   std::map<int64_t, PinholeCamera> cameras;
-  const auto keep = [&](const KeyframeResult& result) {
+  const auto keep = [&](const PipelineOutput& output) {
+    const KeyframeResult& result = output.result;
     if (!result.has_depth) return;
+    ++estimates;
+    on_cpu += result.depth.backend != Backend::kCuda;
+    ms += result.depth.milliseconds;
     latest[result.id] = result.depth;
     cameras[result.id] = result.camera;
-    std::printf("  keyframe %2ld%-8s %zu sources, depth %.1f..%.1f m (%s): %s %%\n", static_cast<long>(result.id),
-                result.late ? " late" : result.refined ? " refined" : "", result.selection.source_ids.size(),
-                result.depth_range.min, result.depth_range.max, depthRangeSourceName(result.depth_range.source),
+    std::printf("  keyframe %2ld%-8s %zu sources, depth %.1f..%.1f m (%s), %.1f ms estimate, %.1f ms in all: %s %%\n",
+                static_cast<long>(result.id), result.late ? " late" : result.refined ? " refined" : "",
+                result.selection.source_ids.size(), result.depth_range.min, result.depth_range.max,
+                depthRangeSourceName(result.depth_range.source), result.times.estimate_ms, result.times.total_ms,
                 sparsePointAccuracy(result.depth.depth, result.camera, static_cast<int>(result.id), points)
                     .percentages().c_str());
   };
@@ -215,20 +215,20 @@ void onlineMapperFountain(const std::string& data, const std::string& label, con
     for (const SparsePoint& point : points)
       for (int observer : point.views)
         if (observer == view.id) keyframe.sparse_points.push_back(point.position);
-    keep(mapper.process(std::move(keyframe)));
-    KeyframeResult result;
-    if (mapper.estimateLate(&result)) keep(result);
-    while (mapper.refine(&result)) keep(result);
+    pipeline.push(std::move(keyframe));
+    pipeline.runUntilIdle(keep);
   }
   AccuracyCounts pooled;
   for (const auto& entry : latest)
     pooled.merge(sparsePointAccuracy(entry.second.depth, cameras.at(entry.first), static_cast<int>(entry.first), points));
-  std::printf("  online mapper, %s: %d estimates (%zu keyframes, %zu refined) in %.0f ms of estimation, map %zu points, "
-              "%zu keyframes fused\n", label.c_str(), estimates, latest.size(), static_cast<size_t>(estimates) - latest.size(), ms,
-              mapper.map().voxelCount(), mapper.map().keyframeCount());
-  expect(latest.size() == scene.views.size() && !estimate.switched() && estimate.fallbacks() == 0,
-         "online mapper on the GPU, " + label + ": a depth map for every fountain keyframe, no CPU fallback");
-  const std::string what = "online mapper (nodelet core, CUDA), " + label + ": fountain_x0.25 sparse agreement";
+  const PipelineStats stats = pipeline.stats();
+  std::printf("  pipeline, %s: %d estimates (%zu keyframes, %lu refined) in %.0f ms of estimation, map %lu voxels, "
+              "%lu keyframes fused\n", label.c_str(), estimates, latest.size(),
+              static_cast<unsigned long>(stats.refined_depth_maps), ms, static_cast<unsigned long>(stats.map_voxels),
+              static_cast<unsigned long>(stats.keyframes_fused));
+  expect(latest.size() == scene.views.size() && on_cpu == 0 && stats.cpu_fallbacks == 0 && stats.backend == "cuda",
+         "pipeline on the GPU, " + label + ": a depth map for every fountain keyframe, no CPU fallback");
+  const std::string what = "pipeline (nodelet core, CUDA), " + label + ": fountain_x0.25 sparse agreement";
   if (check)
     checkFloors(what, pooled, kFountainFloors);
   else

@@ -100,6 +100,21 @@ class KeyframeServices(unittest.TestCase):
         res = watch.call('save_map', SaveMap, os.path.join(folder, 'map.txt'))
         self.assertFalse(res.success)
         self.assertIn('map.txt', res.message)
+        res = watch.call('save_map', SaveMap, '')
+        self.assertFalse(res.success)
+        self.assertIn('empty path', res.message)
+        # A relative path lands in ~map_directory (here its default: where
+        # roslaunch started, $PWD, not the node's ~/.ros), named in full.
+        relative = 'amhmvs_keyframe_services_map.ply'
+        expected = os.path.join(os.environ['PWD'], relative)
+        try:
+            res = watch.call('save_map', SaveMap, relative)
+            self.assertTrue(res.success, res.message)
+            self.assertTrue(res.message.endswith(' to ' + expected), res.message)
+            self.assertTrue(os.path.isfile(expected))
+        finally:
+            if os.path.exists(expected):
+                os.remove(expected)
 
         # Loop closure: every keyframe 1 m along x; the map follows.
         update = KeyframePoses()
@@ -144,8 +159,13 @@ class KeyframeServices(unittest.TestCase):
         self.assertTrue(watch.wait_for(lambda: watch.count('ignored_while_paused') == 1, 10), watch.diagnostics)
         self.assertTrue(watch.call('resume').success)
         self.assertTrue(watch.call('reset').success)
+        # Diagnostics show the reset at once: work and state counters restart
+        # (drop counters are lifetime).
+        self.assertTrue(watch.wait_for(lambda: watch.count('depth_maps') == 0 and watch.count('stored_keyframes') == 0
+                                       and watch.count('keyframes_received') == 0, 5), watch.diagnostics)
         self.pub.publish(self.keyframe(KEYFRAMES, KEYFRAMES + 1))  # the reset takes effect before it
-        self.assertTrue(watch.wait_for(lambda: watch.count('keyframes_without_sources') == 2, 30), watch.diagnostics)
+        self.assertTrue(watch.wait_for(lambda: watch.count('keyframes_without_sources') == 1 and
+                                       watch.count('stored_keyframes') == 1, 30), watch.diagnostics)
         self.assertTrue(watch.wait_for(lambda: self.maps[-1].width == 0, 10))
 
 

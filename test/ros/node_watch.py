@@ -14,6 +14,8 @@ class NodeWatch:
         self.node = node
         self.lock = threading.Lock()
         self.diagnostics = {}
+        self.level = None    # of the node's status: 0 OK, 1 WARN, 2 ERROR
+        self.message = ''    # its summary
         self.recorded = {}
         rospy.Subscriber('/diagnostics', DiagnosticArray, self._diagnostics)
 
@@ -22,6 +24,7 @@ class NodeWatch:
             if 'depth estimation' in status.name:
                 with self.lock:
                     self.diagnostics = {kv.key: kv.value for kv in status.values}
+                    self.level, self.message = status.level, status.message
 
     def record(self, topic, kind):
         """Every message on `topic` from now on, in self.recorded[topic]."""

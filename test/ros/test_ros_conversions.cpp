@@ -57,10 +57,41 @@ TEST(RosConversions, ImagesByEncodingWithPaddedRows) {
   EXPECT_EQ(image.at(3, 2), mono.data[2 * mono.step + 3]);
 
   EXPECT_NE(imageFromMsg(imageMsg("16UC1", 5, 4, 2), &image).find("unsupported encoding"), std::string::npos);
-  EXPECT_FALSE(supportedEncoding("bgra8"));
+  EXPECT_FALSE(supportedEncoding("32FC1"));
+  EXPECT_FALSE(supportedEncoding("yuv422"));
   sensor_msgs::Image truncated = rgb;
   truncated.data.resize(10);
   EXPECT_NE(imageFromMsg(truncated, &image), "");
+}
+
+TEST(RosConversions, MoreEncodingsThroughCvBridge) {
+  amhmvs::ImageU8 image;
+  const sensor_msgs::Image bgra = imageMsg("bgra8", 5, 4, 4);
+  ASSERT_EQ(imageFromMsg(bgra, &image), "");
+  ASSERT_EQ(image.channels, 3);  // alpha dropped
+  EXPECT_EQ(image.at(2, 3, 0), bgra.data[3 * bgra.step + 2 * 4 + 2]);
+  EXPECT_EQ(image.at(2, 3, 2), bgra.data[3 * bgra.step + 2 * 4 + 0]);
+  const sensor_msgs::Image rgba = imageMsg("rgba8", 5, 4, 4);
+  ASSERT_EQ(imageFromMsg(rgba, &image), "");
+  EXPECT_EQ(image.at(4, 1, 1), rgba.data[1 * rgba.step + 4 * 4 + 1]);
+  // mono16: 16-bit grey, scaled to 8 bits (65535 -> 255).
+  sensor_msgs::Image mono16 = imageMsg("mono16", 4, 3, 2);
+  EXPECT_NE(imageFromMsg(mono16, &image).find("does not match"), std::string::npos);  // odd step: not 16-bit rows
+  mono16.step = 4 * 2 + 4;
+  mono16.data.assign(mono16.step * 3, 0xff);
+  ASSERT_EQ(imageFromMsg(mono16, &image), "");
+  ASSERT_EQ(image.channels, 1);
+  EXPECT_EQ(image.at(3, 2), 255);
+  // A uniform Bayer mosaic debayers to the same grey in every channel.
+  sensor_msgs::Image bayer = imageMsg("bayer_rggb8", 8, 6, 1);
+  std::fill(bayer.data.begin(), bayer.data.end(), 90);
+  ASSERT_EQ(imageFromMsg(bayer, &image), "");
+  ASSERT_EQ(image.channels, 3);
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(image.at(4, 3, c), 90) << c;
+  // A step shorter than a row of 4-byte pixels is refused before cv_bridge reads it.
+  sensor_msgs::Image short_step = bgra;
+  short_step.step = 5 * 3;
+  EXPECT_NE(imageFromMsg(short_step, &image).find("does not match its size"), std::string::npos);
 }
 
 TEST(RosConversions, PosesMustBeFiniteAndRigid) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -438,6 +439,60 @@ TEST(ColmapModel, MalformedModelsNameFileAndProblem) {
     EXPECT_INPUT_ERROR(readColmapWorkspace(tmp.file("ws")), "ws", "no COLMAP model");
     EXPECT_INPUT_ERROR(readColmapWorkspace(tmp.file("nope")), "nope", "not a directory");
   }
+}
+
+// Ids above INT_MAX in the binary model (uint32 there) used to become
+// negative view ids; the text reader already refused them.
+TEST(ColmapModel, BinaryIdsAboveIntMaxAreRefused) {
+  test::TempDir tmp;
+  TModel m = smallModel();
+  m.images[3].id = INT_MIN;  // written as uint32 2147483648
+  writeBinary(m, tmp.file("ws/sparse"));
+  writeImages(m, tmp.file("ws/images"));
+  EXPECT_INPUT_ERROR(readColmapWorkspace(tmp.file("ws")), "images.bin",
+                     "image id 2147483648 out of range (max 2147483647)");
+  m = smallModel();
+  m.points[0].track.push_back(INT_MIN);
+  writeBinary(m, tmp.file("ws/sparse"));
+  EXPECT_INPUT_ERROR(readColmapWorkspace(tmp.file("ws")), "points3D.bin",
+                     "track image id 2147483648 out of range");
+}
+
+// Image names are paths relative to images/: '..' or an absolute path would
+// read files outside it, even when such a file exists.
+TEST(ColmapModel, ImagePathsOutsideTheImageFolderAreRefused) {
+  test::TempDir tmp;
+  const std::string outside = tmp.file("ws/outside.pgm");
+  std::filesystem::create_directories(tmp.file("ws"));
+  writePnm(outside, ImageU8(64, 48, 1, 50));
+  for (const std::string& name : {std::string("../outside.pgm"), outside,
+                                  std::string("sub/../../outside.pgm")}) {
+    for (bool binary : {false, true}) {
+      TModel m = smallModel();
+      writeImages(m, tmp.file("ws/images"));
+      m.images[2].name = name;
+      if (binary) {
+        writeBinary(m, tmp.file("ws/sparse"));
+      } else {
+        std::filesystem::remove_all(tmp.file("ws/sparse"));
+        writeText(m, tmp.file("ws/sparse"));
+      }
+      EXPECT_INPUT_ERROR(readColmapWorkspace(tmp.file("ws")), name,
+                         "image name must be a relative path inside the image folder");
+    }
+  }
+}
+
+// A quaternion whose norm overflows used to normalise to a wrong pose, and
+// the error then blamed the view's sparse points.
+TEST(ColmapModel, QuaternionOfOverflowingNormIsNamed) {
+  test::TempDir tmp;
+  TModel m = smallModel();
+  m.images[0].q = Eigen::Quaterniond(1e300, 1e300, 0, 0);
+  writeBinary(m, tmp.file("ws/sparse"));
+  writeImages(m, tmp.file("ws/images"));
+  EXPECT_INPUT_ERROR(readColmapWorkspace(tmp.file("ws")), "image 1 ('a.pgm')",
+                     "invalid rotation quaternion (1e+300, 1e+300, 0, 0), norm 1.41421e+300");
 }
 
 // The real model made by scripts/make_colmap_model.sh from the x0.25 fountain.

@@ -166,6 +166,56 @@ TEST_F(DepthCli, UnknownOptionAndBadValues) {
   expectFailure("--depth_min 3 --depth_max 2", "depth range", "invalid");
 }
 
+// Option values that parse but mean nothing are refused, not ignored.
+TEST_F(DepthCli, OptionValuesOutsideTheirMeaningAreRefused) {
+  expectFailure("--depth_min -1 --depth_max -0.5", "--depth_min -1", "need 1e-12 <= depth_min");
+  expectFailure("--depth_min 1e-300 --depth_max 1e300", "depth range", "depth_max <= 1e+12");
+  expectFailure("--depth_min 2", "--depth_min and --depth_max", "together");
+  expectFailure("--max_cost -1", "--max_cost -1", "must be > 0");
+  expectFailure("--views 0,0", "--views", "view 0 is listed twice");
+  expectFailure("--max_image_size 1", "--max_image_size 1", "must be 0 (no limit) or >= 16");
+}
+
+TEST_F(DepthCli, EmptyOutputDirIsRefused) {
+  const CommandResult r = runDepth(input_ + " '' --backend cpu --max_image_size 120 --iterations 1");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("OUTPUT_DIR is empty"), std::string::npos) << r.output;
+}
+
+// Degenerate but finite cameras are refused at load, naming the cam file.
+TEST_F(DepthCli, DegenerateCamerasAreRefusedAtLoad) {
+  replaceCamLine(1, 2, "1.0 0.0 0.0 1e308");
+  expectFailure("", "00000001_cam.txt", "camera centre is 1e+308 from the world origin");
+  replaceCamLine(1, 2, "1.0 0.0 0.0 -0.178089");
+  replaceCamLine(1, 8, "1e-300 0.0 356.021");
+  expectFailure("", "00000001_cam.txt", "focal length (fx=1e-300");
+  replaceCamLine(1, 8, "1e300 0.0 356.021");
+  expectFailure("", "00000001_cam.txt", "focal length (fx=1e+300");
+}
+
+// A camera that is valid at full size but not at the processed size is named
+// by its view id (the estimator only knows "source view <index>").
+TEST_F(DepthCli, CameraInvalidAtTheProcessedSizeNamesItsViewId) {
+  replaceCamLine(1, 8, "713.189 0.0 0.0");  // principal point on the left border
+  expectFailure("--views 0", "view 1 (", "at 120x82: principal point");
+}
+
+// Textureless images: every pixel is unscored (NaN), which used to exit 0.
+TEST_F(DepthCli, AllInvalidResultIsAnError) {
+  for (const char* view : {"00000000", "00000001"}) {
+    fs::remove(input_ + "/images/" + view + ".png");
+    writePnm(input_ + "/images/" + view + ".pgm", ImageU8(707, 481, 1, 128));
+  }
+  expectFailure("", "no valid depth in any of the 2 depth maps (19680 pixels)",
+                "check the cameras, depth ranges and options");
+}
+
+TEST_F(DepthCli, OutputDirectoryErrorsSayWhy) {
+  test::TempDir::writeTo(dir_.file("file"), "a file where a folder is expected");
+  output_ = dir_.file("file/out");
+  expectFailure("", "file: cannot create directory", "(a file that is not a directory is in the way)");
+}
+
 }  // namespace
 }  // namespace amhmvs
 

@@ -27,10 +27,7 @@ namespace {
 namespace fs = std::filesystem;
 
 using test::CommandResult;
-
-CommandResult runTool(const std::string& tool, const std::string& arguments) {
-  return test::runCommand(std::string(AMHMVS_TOOLS_DIR) + "/" + tool + " " + arguments);
-}
+using test::runTool;
 
 std::string id8(int id) {
   char name[16];

@@ -104,6 +104,13 @@ inline CommandResult runCommand(const std::string& command_line) {
   return result;
 }
 
+#ifdef AMHMVS_TOOLS_DIR
+// Runs one of the built command-line tools (AMHMVS_TOOLS_DIR/<tool>).
+inline CommandResult runTool(const std::string& tool, const std::string& arguments) {
+  return runCommand(std::string(AMHMVS_TOOLS_DIR) + "/" + tool + " " + arguments);
+}
+#endif
+
 // An image of uniformly random bytes, reproducible from `seed`.
 inline ImageU8 randomImage(int width, int height, int channels, unsigned seed) {
   std::mt19937 rng(seed);

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -239,6 +240,29 @@ TEST(ImageIo, HeaderSizesOfBmpAndUnknownFormats) {
                                    &w, &h),
                      "bad.jpg", "truncated JPEG");
   EXPECT_INPUT_ERROR(readImageSize(tmp.file("none.png"), &w, &h), "none.png", "cannot open");
+}
+
+// BMP sizes: INT32_MIN rows (whose negation in 32 bits is undefined) and
+// sides above kMaxImageSide are refused with the size in the message.
+TEST(ImageIo, BmpSizesOutOfRangeAreRefused) {
+  test::TempDir tmp;
+  auto bmp_header = [](int32_t width, int32_t height) {
+    std::string bmp(54, '\0');
+    bmp[0] = 'B';
+    bmp[1] = 'M';
+    bmp[14] = 40;
+    std::memcpy(&bmp[18], &width, 4);
+    std::memcpy(&bmp[22], &height, 4);
+    return bmp;
+  };
+  int w = 0, h = 0;
+  EXPECT_INPUT_ERROR(readImageSize(tmp.write("min.bmp", bmp_header(8, INT32_MIN)), &w, &h),
+                     "min.bmp", "invalid size 8x-2147483648");
+  EXPECT_INPUT_ERROR(readImageSize(tmp.write("wide.bmp", bmp_header(2000000, 10)), &w, &h),
+                     "wide.bmp", "invalid size 2000000x10; each side must be 1..1048576");
+  ASSERT_TRUE(readImageSize(tmp.write("max.bmp", bmp_header(kMaxImageSide, -kMaxImageSide)), &w,
+                            &h));
+  EXPECT_EQ(h, kMaxImageSide);
 }
 
 TEST(ImageIo, MalformedPnmNamesFileAndProblem) {

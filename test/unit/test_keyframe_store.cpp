@@ -297,12 +297,12 @@ TEST(KeyframeStore, TenThousandKeyframesThroughStoreAndMapStayInBudget) {
   EXPECT_GT(map_evictions, 0u);
   EXPECT_EQ(map.totalSkippedInvalid(), 100u);
 
-  const MapCloud cloud = map.exportCloud();
+  const PointCloud cloud = map.exportCloud();
   EXPECT_EQ(cloud.size(), map.voxelCount());
   for (size_t i = 0; i < cloud.size(); ++i) {
-    ASSERT_TRUE(cloud.positions[i].allFinite());
+    ASSERT_TRUE(cloud.points[i].allFinite());
     ASSERT_TRUE(cloud.normals[i].allFinite());
-    ASSERT_TRUE(std::isfinite(cloud.confidences[i]));
+    ASSERT_TRUE(std::isfinite(cloud.confidence[i]));
   }
 }
 

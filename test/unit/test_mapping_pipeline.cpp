@@ -166,6 +166,24 @@ TEST(MappingPipeline, InvalidKeyframeIsDroppedWithTheReason) {
   EXPECT_TRUE(wall.logged("focal"));
 }
 
+TEST(MappingPipeline, BoundedStoreEvictsTheOldestAndCountsIt) {
+  PipelineOptions options = wallPipeline();
+  options.mapper.store.max_keyframes = 3;
+  WallPipeline wall(options);
+  std::vector<int64_t> evicted;
+  for (int i = 0; i < 6; ++i) wall.pipeline.push(keyframeAt(i, 0.25 * i));
+  wall.pipeline.runUntilIdle([&](const PipelineOutput& output) {
+    for (int64_t id : output.result.evicted) evicted.push_back(id);
+  });
+  EXPECT_EQ(evicted, (std::vector<int64_t>{0, 1, 2}));
+  const PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.stored_keyframes, 3u);
+  EXPECT_EQ(stats.keyframes_evicted, 3u);
+  EXPECT_EQ(stats.depth_maps, 6u);
+  // Evicted keyframes keep their points in the map.
+  wall.pipeline.withMapper([](const OnlineMapper& mapper) { EXPECT_TRUE(mapper.map().contains(1)); });
+}
+
 TEST(MappingPipeline, PoseUpdatesAreAppliedAtTheNextStepAndCounted) {
   WallPipeline wall(wallPipeline());
   for (int i = 0; i < 3; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
@@ -193,6 +211,7 @@ TEST(MappingPipeline, ResetClearsCountersAtOnceAndTheMapAtTheNextStep) {
   wall.pipeline.push(keyframeAt(3, 1.5));
   EXPECT_EQ(wall.pipeline.requestReset(), 1u);  // the queued keyframe
   PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.dropped_queue_full, 0u);  // discarded by the reset, not dropped for a newer keyframe
   EXPECT_EQ(stats.depth_maps, 0u);
   EXPECT_EQ(stats.keyframes_received, 0u);
   EXPECT_EQ(stats.queued, 0u);

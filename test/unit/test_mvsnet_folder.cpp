@@ -181,6 +181,46 @@ TEST(MvsnetFolder, MalformedCamFilesNameFileLineAndProblem) {
                      "2 to 4 numbers");
 }
 
+// Bytes of a binary file given as a cam file are shown escaped, never raw.
+TEST(MvsnetFolder, GarbageBytesAreEscapedInMessages) {
+  test::TempDir tmp;
+  PinholeCamera cam;
+  double lo, hi;
+  try {
+    readMvsnetCam(tmp.write("bin_cam.txt", std::string("\x7f" "ELF\x01\x1b[2J\xff\n")), &cam, &lo, &hi);
+    ADD_FAILURE() << "expected InputError";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("got '\\x7fELF\\x01\\x1b[2J\\xff'"), std::string::npos) << message;
+    for (const char c : message) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << static_cast<int>(c);
+  }
+}
+
+// Finite cameras and ranges the float estimator cannot use are refused at load.
+TEST(MvsnetFolder, IllConditionedCamerasAreRefused) {
+  const std::string far = "extrinsic\n1 0 0 1e12\n0 1 0 0\n0 0 1 0\n0 0 0 1\nintrinsic\n";
+  struct Case {
+    std::string cam, needle;
+  } cases[] = {
+      {camText("0.01 0 31.5\n0 0.01 23.5\n0 0 1\n", "1.0 0.5 9"), "focal length (fx=0.01"},
+      {camText("1e6 0 31.5\n0 1e6 23.5\n0 0 1\n", "1.0 0.5 9"), "times the longest image side (64 px)"},
+      {camText(kK, "1e-20 1e-21 9"), "depth range [1e-20"},
+      {camText(kK, "1 1e20"), "outside 1e-12..1e+12"},
+      {far + kK + "\n1.0 0.5 9\n", "camera centre is 1e+12 from the world origin"},
+  };
+  for (const Case& c : cases) {
+    test::TempDir tmp;
+    makeFolder(tmp);
+    tmp.write("cams/00000002_cam.txt", c.cam);
+    EXPECT_INPUT_ERROR(readMvsnetDenseFolder(tmp.path()), "00000002_cam.txt", c.needle);
+  }
+  // Just inside the limits: f slightly above 1e-3 and below 1e4 times the side.
+  test::TempDir tmp;
+  makeFolder(tmp);
+  tmp.write("cams/00000002_cam.txt", camText("0.065 0 31.5\n0 639000 23.5\n0 0 1\n", "1.0 0.5 9"));
+  EXPECT_EQ(readMvsnetDenseFolder(tmp.path()).views.size(), 3u);
+}
+
 TEST(MvsnetFolder, MalformedFoldersNameFileAndProblem) {
   {
     test::TempDir tmp;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <set>
 #include <stdexcept>
@@ -79,9 +80,9 @@ TEST(OnlineMapper, FirstKeyframeIsASourceThenDeferredFusionAndMap) {
     for (const KeyframePoint& point : fused.points)
       EXPECT_NEAR(point.position.z() + cameraToWorld(fused.camera).translation().z(), kWallZ, 1e-4);
   }
-  const MapCloud cloud = mapper.map().exportCloud();
+  const PointCloud cloud = mapper.map().exportCloud();
   ASSERT_GT(cloud.size(), 0u);
-  for (const Eigen::Vector3f& p : cloud.positions) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+  for (const Eigen::Vector3f& p : cloud.points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
   EXPECT_EQ(mapper.mapRevision(), 3u);
 
   // Each keyframe is fused exactly once: keyframe 4 fuses only itself.
@@ -126,7 +127,7 @@ TEST(OnlineMapper, KeyframeWithoutSourceGetsItsDepthMapOnceALaterKeyframeQualifi
   const KeyframeResult third = mapper.process(keyframeAt(2, 1.0));
   EXPECT_EQ(fusedIds(third), (std::vector<int64_t>{1, 0, 2}));
   EXPECT_TRUE(mapper.map().contains(0));
-  for (const Eigen::Vector3f& p : mapper.map().exportCloud().positions) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+  for (const Eigen::Vector3f& p : mapper.map().exportCloud().points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
 }
 
 TEST(OnlineMapper, KeyframeThatNeverGetsASourceIsCountedWhenEvicted) {
@@ -214,7 +215,7 @@ TEST(OnlineMapper, RefineReestimatesAKeyframeOnceWhenLaterKeyframesGiveBetterSou
   EXPECT_EQ(sortedSources(result), (std::vector<int64_t>{0, 1, 3}));
   EXPECT_FALSE(mapper.refine(&result));
   // Re-fusion replaced points, never added copies: the map is still the wall.
-  for (const Eigen::Vector3f& p : mapper.map().exportCloud().positions) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+  for (const Eigen::Vector3f& p : mapper.map().exportCloud().points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
   size_t points = 0;
   for (int64_t id : mapper.map().keyframeIds()) points += mapper.store().entry(id).points.size();
   EXPECT_EQ(mapper.map().storedPointCount(), points);
@@ -257,10 +258,43 @@ DepthMap wallWithBlob(const DepthProblem& problem, double blob_min_x, double blo
   return map;
 }
 
-size_t pointsNearerThan(const MapCloud& cloud, double z) {
+size_t pointsNearerThan(const PointCloud& cloud, double z) {
   size_t count = 0;
-  for (const Eigen::Vector3f& p : cloud.positions) count += p.z() < z;
+  for (const Eigen::Vector3f& p : cloud.points) count += p.z() < z;
   return count;
+}
+
+TEST(OnlineMapper, KeyframeFusedFirstWithoutPointsIsFusedAgainWhenRefined) {
+  OnlineMapperOptions options = wallOptions();
+  options.refinement.min_score_gain = 1.01;
+  int first_estimates_of_1 = 0;
+  OnlineMapper mapper(options, [&](const DepthProblem& problem) {
+    DepthMap map = wallDepth(problem);
+    const bool keyframe_1 = std::abs(cameraToWorld(problem.reference_camera).translation().x() - 0.5) < 1e-9;
+    if (keyframe_1 && first_estimates_of_1++ == 0)  // its first depth map confirms nothing
+      std::fill(map.depth.data.begin(), map.depth.data.end(), std::numeric_limits<float>::quiet_NaN());
+    return map;
+  });
+  std::vector<FusedKeyframe> fusions_of_1;
+  const auto keep = [&](const KeyframeResult& result) {
+    for (const FusedKeyframe& fused : result.fused)
+      if (fused.id == 1) fusions_of_1.push_back(fused);
+  };
+  for (int i = 0; i < 3; ++i) {
+    keep(mapper.process(keyframeAt(i, 0.5 * i)));
+    KeyframeResult late;
+    if (mapper.estimateLate(&late)) keep(late);
+  }
+  ASSERT_EQ(fusions_of_1.size(), 1u);
+  EXPECT_FALSE(fusions_of_1[0].again);
+  EXPECT_TRUE(fusions_of_1[0].points.empty());
+  EXPECT_FALSE(mapper.map().contains(1));
+  KeyframeResult refined;
+  while (mapper.refine(&refined)) keep(refined);
+  ASSERT_EQ(fusions_of_1.size(), 2u);
+  EXPECT_TRUE(fusions_of_1[1].again);  // a second fusion, though the first left no point
+  EXPECT_FALSE(fusions_of_1[1].points.empty());
+  EXPECT_TRUE(mapper.map().contains(1));
 }
 
 TEST(OnlineMapper, OutlierThatOnlyOneViewChecksNeverReachesTheMap) {
@@ -282,9 +316,9 @@ TEST(OnlineMapper, OutlierThatOnlyOneViewChecksNeverReachesTheMap) {
   }
   EXPECT_TRUE(mapper.map().contains(1));
   EXPECT_TRUE(mapper.map().contains(2));
-  const MapCloud cloud = mapper.map().exportCloud();
+  const PointCloud cloud = mapper.map().exportCloud();
   ASSERT_GT(cloud.size(), 0u);
-  for (const Eigen::Vector3f& p : cloud.positions) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+  for (const Eigen::Vector3f& p : cloud.points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
 }
 
 TEST(OnlineMapper, WaitingKeyframeIsFusedWithItsLoopClosedPose) {
@@ -327,10 +361,10 @@ TEST(OnlineMapper, LoopClosureMovesTheKeyframesMapPointsExactly) {
   for (int i = 0; i < 4; ++i) mapper.process(keyframeAt(i, 0.5 * i));
   ASSERT_TRUE(mapper.map().contains(2));
   ASSERT_EQ(mapper.mapRevision(), 3u);  // keyframes 1, 2, 3 fused
-  const MapCloud before = mapper.map().exportCloud();
+  const PointCloud before = mapper.map().exportCloud();
   // Keyframe 2 moves 0.4 m up (y): its points move with it.
   EXPECT_TRUE(mapper.updatePose(2, test::poseAt({1.0, 0.4, 0})));
-  const MapCloud after = mapper.map().exportCloud();
+  const PointCloud after = mapper.map().exportCloud();
   // Keyframes 1 and 3 share voxels with 2: compare the sums of all points
   // (voxel mean times count), which only keyframe 2's points change.
   const size_t points = mapper.map().storedPointCount();
@@ -339,11 +373,11 @@ TEST(OnlineMapper, LoopClosureMovesTheKeyframesMapPointsExactly) {
   double sum_before = 0, sum_after = 0;
   size_t count_before = 0, count_after = 0;
   for (size_t i = 0; i < before.size(); ++i) {
-    sum_before += double(before.positions[i].y()) * before.counts[i];
+    sum_before += double(before.points[i].y()) * before.counts[i];
     count_before += before.counts[i];
   }
   for (size_t i = 0; i < after.size(); ++i) {
-    sum_after += double(after.positions[i].y()) * after.counts[i];
+    sum_after += double(after.points[i].y()) * after.counts[i];
     count_after += after.counts[i];
   }
   EXPECT_EQ(count_before, points);

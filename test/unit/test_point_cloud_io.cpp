@@ -114,6 +114,32 @@ TEST(PointCloudIo, ReadsAsciiAndForeignBinaryPly) {
   EXPECT_EQ(b.points[0], Eigen::Vector3f(1, -2, 3));
 }
 
+// A vertex count the file cannot hold is refused before anything is
+// reserved (it used to end in std::bad_alloc, naming no file).
+TEST(PointCloudIo, VertexCountsBeyondTheFileAreRefusedBeforeAllocating) {
+  test::TempDir dir;
+  const std::string xyz = "property float x\nproperty float y\nproperty float z\nend_header\n";
+  EXPECT_INPUT_ERROR(readPly(dir.write("huge.ply", "ply\nformat binary_little_endian 1.0\n"
+                                                   "element vertex 4000000000\n" + xyz)),
+                     "huge.ply", "vertex count 4000000000 exceeds the reader's maximum");
+  EXPECT_INPUT_ERROR(readPly(dir.write("many.ply", "ply\nformat ascii 1.0\n"
+                                                   "element vertex 100000000\n" + xyz + "1 2 3\n")),
+                     "many.ply", "6 bytes of ASCII data cannot hold 100000000 vertices");
+}
+
+// An element of 2^62 four-byte rows before the vertices: count * row size
+// wraps to 0 in 64 bits, which used to read the vertices from the wrong offset.
+TEST(PointCloudIo, ElementSizesThatOverflowAreRefused) {
+  test::TempDir dir;
+  std::string bin =
+      "ply\nformat binary_little_endian 1.0\nelement face 4611686018427387904\n"
+      "property int f\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+      "end_header\n";
+  bin.append(12, '\0');
+  EXPECT_INPUT_ERROR(readPly(dir.write("wrap.ply", bin)), "wrap.ply",
+                     "element 'face' claims 4611686018427387904 rows, more than the file holds");
+}
+
 TEST(PointCloudIo, BrokenFilesAndCloudsAreRefused) {
   test::TempDir dir;
   EXPECT_INPUT_ERROR(readPly(dir.file("missing.ply")), "missing.ply", "cannot open");

@@ -92,11 +92,16 @@ KnownNames collectKnownNames(const fs::path& root) {
     if (entry.path().extension() == ".cpp")
       for (const std::string& value : captures(readText(entry.path()), compared)) known.words.insert(value);
   }
-  // Diagnostic keys the nodelet reports (counters, count() calls, status entries).
-  static const std::regex diagnostic(R"((?:counts_\[|status\.add\(|\bcount\()\s*"([^"]+)\")");
-  for (const auto& entry : fs::directory_iterator(root / "src/ros")) {
-    if (entry.path().extension() == ".cpp")
-      for (const std::string& key : captures(readText(entry.path()), diagnostic)) known.words.insert(key);
+  // Diagnostic keys the nodelet reports: its status entries and the typed
+  // counters' name tables of the inputs and the pipeline.
+  static const std::regex status(R"(status\.add\(\s*"([^"]+)\")");
+  static const std::regex counter(R"(\{\s*"([^"]+)\",\s*&(?:Input|Pipeline)Stats::)");
+  for (const char* folder : {"src/ros", "src/mapping"}) {
+    for (const auto& entry : fs::directory_iterator(root / folder)) {
+      if (entry.path().extension() != ".cpp") continue;
+      for (const std::regex* pattern : {&status, &counter})
+        for (const std::string& key : captures(readText(entry.path()), *pattern)) known.words.insert(key);
+    }
   }
   // Message and service types, and their field names (a service's `path`).
   static const std::regex field(R"((?:^|\n)\s*[A-Za-z][\w/]*(?:\[\d*\])?\s+(\w+)\s*(?:#[^\n]*)?(?=\n|$))");
@@ -111,6 +116,12 @@ KnownNames collectKnownNames(const fs::path& root) {
   for (const std::string& type : captures(readText(root / "nodelet_plugins.xml"), plugin)) known.types.insert(type);
   for (const std::string& program : captures(readText(root / "CMakeLists.txt"), executable)) known.words.insert(program);
   for (const std::string& name : captures(readText(root / "launch/mapping.launch"), ns)) known.words.insert("/" + name);
+  // Launch arguments (`iterations:=3`).
+  static const std::regex launch_arg(R"re(<arg name="(\w+)")re");
+  for (const auto& entry : fs::directory_iterator(root / "launch")) {
+    if (entry.path().extension() == ".launch")
+      for (const std::string& name : captures(readText(entry.path()), launch_arg)) known.words.insert(name);
+  }
   return known;
 }
 

@@ -43,25 +43,25 @@ KeyframePoints gridPoints(int n, float spacing, uint8_t grey = 100) {
   return points;
 }
 
-void expectAllFinite(const MapCloud& cloud) {
+void expectAllFinite(const PointCloud& cloud) {
   ASSERT_EQ(cloud.normals.size(), cloud.size());
   ASSERT_EQ(cloud.colors.size(), cloud.size());
-  ASSERT_EQ(cloud.confidences.size(), cloud.size());
+  ASSERT_EQ(cloud.confidence.size(), cloud.size());
   ASSERT_EQ(cloud.counts.size(), cloud.size());
   for (size_t i = 0; i < cloud.size(); ++i) {
-    ASSERT_TRUE(cloud.positions[i].allFinite()) << i;
+    ASSERT_TRUE(cloud.points[i].allFinite()) << i;
     ASSERT_TRUE(cloud.normals[i].allFinite()) << i;
-    ASSERT_TRUE(std::isfinite(cloud.confidences[i])) << i;
+    ASSERT_TRUE(std::isfinite(cloud.confidence[i])) << i;
     ASSERT_GT(cloud.counts[i], 0u);
   }
 }
 
 // Index of the exported point nearest to `point`.
-size_t nearest(const MapCloud& cloud, const Eigen::Vector3f& point) {
+size_t nearest(const PointCloud& cloud, const Eigen::Vector3f& point) {
   size_t best = 0;
   for (size_t i = 1; i < cloud.size(); ++i) {
-    if ((cloud.positions[i] - point).squaredNorm() <
-        (cloud.positions[best] - point).squaredNorm()) {
+    if ((cloud.points[i] - point).squaredNorm() <
+        (cloud.points[best] - point).squaredNorm()) {
       best = i;
     }
   }
@@ -83,13 +83,13 @@ TEST(VoxelMap, AveragesPointsPerVoxel) {
   EXPECT_EQ(update.added_points, 3u);
   EXPECT_EQ(map.voxelCount(), 2u);
 
-  const MapCloud cloud = map.exportCloud();
+  const PointCloud cloud = map.exportCloud();
   expectAllFinite(cloud);
   const size_t i = nearest(cloud, Eigen::Vector3f(0.02f, 0.03f, 0.04f));
-  EXPECT_TRUE(cloud.positions[i].isApprox(Eigen::Vector3f(0.02f, 0.03f, 0.04f), 1e-6f));
+  EXPECT_TRUE(cloud.points[i].isApprox(Eigen::Vector3f(0.02f, 0.03f, 0.04f), 1e-6f));
   EXPECT_TRUE(cloud.normals[i].isApprox(Eigen::Vector3f(0, 1, 1).normalized(), 1e-6f));
-  EXPECT_EQ(cloud.colors[i], (Eigen::Matrix<uint8_t, 3, 1>(15, 15, 46)));  // 45.5 rounds up
-  EXPECT_FLOAT_EQ(cloud.confidences[i], 2.f);
+  EXPECT_EQ(cloud.colors[i], (std::array<uint8_t, 3>{15, 15, 46}));  // 45.5 rounds up
+  EXPECT_FLOAT_EQ(cloud.confidence[i], 2.f);
   EXPECT_EQ(cloud.counts[i], 2u);
   EXPECT_EQ(cloud.counts[1 - i], 1u);
 }
@@ -101,7 +101,7 @@ TEST(VoxelMap, OpposingNormalsGiveZeroNormalNotNaN) {
   KeyframePoint down = up;
   down.normal = Eigen::Vector3f(0, 0, -1);
   map.addKeyframe(1, Eigen::Isometry3d::Identity(), {up, down});
-  const MapCloud cloud = map.exportCloud();
+  const PointCloud cloud = map.exportCloud();
   ASSERT_EQ(cloud.size(), 1u);
   EXPECT_EQ(cloud.normals[0], Eigen::Vector3f::Zero());
 }
@@ -117,7 +117,7 @@ TEST(VoxelMap, RePosedKeyframeMovesExactlyItsPoints) {
   const Eigen::Isometry3d pose_b = pose(Eigen::Vector3d(60, 0, 0), -0.4);
   map.addKeyframe(1, pose_a, points_a);
   map.addKeyframe(2, pose_b, points_b);
-  const MapCloud before = map.exportCloud();
+  const PointCloud before = map.exportCloud();
   ASSERT_EQ(before.size(), 200u);
 
   const Eigen::Isometry3d new_pose_a =
@@ -127,15 +127,15 @@ TEST(VoxelMap, RePosedKeyframeMovesExactlyItsPoints) {
   EXPECT_TRUE(update.evicted_keyframes.empty());
   EXPECT_EQ(map.keyframeIds(), (std::vector<int64_t>{1, 2}));  // keeps its place
   EXPECT_TRUE(map.pose(1).matrix().isApprox(new_pose_a.matrix()));
-  const MapCloud after = map.exportCloud();
+  const PointCloud after = map.exportCloud();
   expectAllFinite(after);
   ASSERT_EQ(after.size(), 200u);
 
   // Keyframe 2's points (x > 50) are bit-for-bit unchanged.
   std::vector<Eigen::Vector3f> b_before, b_after;
-  for (const auto& p : before.positions)
+  for (const auto& p : before.points)
     if (p.x() > 50) b_before.push_back(p);
-  for (const auto& p : after.positions)
+  for (const auto& p : after.points)
     if (p.x() > 50) b_after.push_back(p);
   EXPECT_EQ(b_before, b_after);
   ASSERT_EQ(b_after.size(), 100u);
@@ -143,7 +143,7 @@ TEST(VoxelMap, RePosedKeyframeMovesExactlyItsPoints) {
   for (const KeyframePoint& point : points_a) {
     const Eigen::Vector3f expected = (new_pose_a * point.position.cast<double>()).cast<float>();
     const size_t i = nearest(after, expected);
-    EXPECT_LT((after.positions[i] - expected).norm(), 1e-5f);
+    EXPECT_LT((after.points[i] - expected).norm(), 1e-5f);
     EXPECT_EQ(after.colors[i][0], 50);
     const Eigen::Vector3f normal = (new_pose_a.linear() * Eigen::Vector3d(0, 0, -1)).cast<float>();
     EXPECT_LT((after.normals[i] - normal).norm(), 1e-5f);
@@ -167,15 +167,15 @@ TEST(VoxelMap, RemovalIsExactAfterManyRePoses) {
     map.updatePose(1, far_away);
   }
   map.removeKeyframe(1);
-  const MapCloud cloud = map.exportCloud();
-  const MapCloud expected = reference.exportCloud();
+  const PointCloud cloud = map.exportCloud();
+  const PointCloud expected = reference.exportCloud();
   ASSERT_EQ(cloud.size(), expected.size());
   for (size_t i = 0; i < cloud.size(); ++i) {
-    EXPECT_LT((cloud.positions[i] - expected.positions[i]).norm(), 1e-5f);
+    EXPECT_LT((cloud.points[i] - expected.points[i]).norm(), 1e-5f);
     EXPECT_LT((cloud.normals[i] - expected.normals[i]).norm(), 1e-6f);
     EXPECT_EQ(cloud.colors[i], expected.colors[i]);
     EXPECT_EQ(cloud.counts[i], expected.counts[i]);
-    EXPECT_NEAR(cloud.confidences[i], expected.confidences[i], 1e-6f);
+    EXPECT_NEAR(cloud.confidence[i], expected.confidence[i], 1e-6f);
   }
   EXPECT_EQ(map.storedPointCount(), points_b.size());
   map.removeKeyframe(2);
@@ -200,7 +200,7 @@ TEST(VoxelMap, InvalidPointsAreSkippedAndCounted) {
   EXPECT_EQ(update.skipped_invalid, 6u);
   EXPECT_EQ(map.totalSkippedInvalid(), 6u);
   EXPECT_EQ(map.storedPointCount(), 9u);
-  const MapCloud cloud = map.exportCloud();
+  const PointCloud cloud = map.exportCloud();
   EXPECT_EQ(cloud.size(), 9u);
   expectAllFinite(cloud);
   // A re-pose that throws the points out of range skips them too.
@@ -247,9 +247,9 @@ TEST(VoxelMap, RegionOfInterestKeepsOutsidePointsOutOfTheMapButExactForRePosing)
   EXPECT_EQ(update.outside_region, 50u);
   EXPECT_EQ(map.pointsOutsideRegion(), 50u);
   EXPECT_EQ(map.storedPointCount(), 100u);  // all kept for re-posing
-  MapCloud cloud = map.exportCloud();
+  PointCloud cloud = map.exportCloud();
   ASSERT_EQ(cloud.size(), 50u);
-  for (const Eigen::Vector3f& p : cloud.positions) EXPECT_LE(p.x(), 0.45f);
+  for (const Eigen::Vector3f& p : cloud.points) EXPECT_LE(p.x(), 0.45f);
 
   // Moved 0.5 m to -x: every point is inside now, exactly where it belongs.
   map.updatePose(1, pose({-0.5, 0, 0}));
@@ -258,7 +258,7 @@ TEST(VoxelMap, RegionOfInterestKeepsOutsidePointsOutOfTheMapButExactForRePosing)
   ASSERT_EQ(cloud.size(), 100u);
   for (const KeyframePoint& point : points) {
     const Eigen::Vector3f expected = point.position - Eigen::Vector3f(0.5f, 0, 0);
-    EXPECT_LT((cloud.positions[nearest(cloud, expected)] - expected).norm(), 1e-5f);
+    EXPECT_LT((cloud.points[nearest(cloud, expected)] - expected).norm(), 1e-5f);
   }
   map.removeKeyframe(1);
   EXPECT_EQ(map.voxelCount(), 0u);

@@ -45,6 +45,18 @@ struct PinholeCamera {
   std::string validate() const;
 };
 
+// Conditioning of a view for the float estimator, fusion and map: empty when
+// the camera and its depth range lie within the limits below, otherwise which
+// limit is broken, with the values. A camera can pass validate() and still
+// give nothing but NaN (focal 1e-300, a centre 1e308 away): these views are
+// refused at load. The limits are justified in camera.cpp.
+std::string conditioningProblem(const PinholeCamera& camera, double depth_min, double depth_max);
+constexpr double kMinFocalPerImageSide = 1e-3;  // f / longest side: field of view < 179.9 deg
+constexpr double kMaxFocalPerImageSide = 1e4;   // field of view > 0.006 deg
+constexpr double kMinDepth = 1e-12;             // depths, their squares and inverses...
+constexpr double kMaxDepth = 1e12;              // ...stay normal floats
+constexpr double kMaxCentreDistancePerDepth = 1e4;  // |camera centre| / depth_max
+
 // Relative pose that maps reference-camera points into the source camera:
 // X_src = R_rel * X_ref + t_rel.
 struct RelativePose {

@@ -33,6 +33,22 @@ struct AccuracyCounts {
 AccuracyCounts denseDepthAccuracy(const ImageF& depth, const ImageF& truth,
                                   const ImageU8* valid_mask);
 
+// An estimated depth map against dense ground truth, split into accuracy
+// (relative error of the pixels that have both, within 1/2/5/10 %) and
+// completeness (share of the ground-truth pixels that have an estimate).
+struct DepthComparison {
+  AccuracyCounts accuracy{{0.01, 0.02, 0.05, 0.10}};  // total = pixels with both
+  long truth_pixels = 0;
+
+  double completeness() const { return truth_pixels ? static_cast<double>(accuracy.total) / truth_pixels : 0.0; }
+  void merge(const DepthComparison& other) {
+    accuracy.merge(other.accuracy);
+    truth_pixels += other.truth_pixels;
+  }
+};
+// Throws InputError when the sizes differ.
+DepthComparison compareDepth(const ImageF& estimate, const ImageF& truth);
+
 struct MiddleburyGroundTruth {
   ImageF depth;        // metres, NaN where unknown
   ImageU8 nonoccluded; // 255 = not occluded

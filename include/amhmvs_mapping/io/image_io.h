@@ -28,12 +28,22 @@ bool canDecodeCompressedImages();
 // InputError naming the file and the problem.
 ImageU8 readImage(const std::string& path);
 
+// Reads a single-channel 16-bit image (depth maps: Kinect, TUM, 7-Scenes)
+// with its stored values: binary PGM with maxval > 255 natively, PNG and
+// other formats through OpenCV. Throws InputError naming the file for other
+// channel counts or sample types, and for PNG in builds without OpenCV.
+Image<uint16_t> readImage16(const std::string& path);
+
 // Image width and height from the file header alone, without decoding pixels:
 // PNG (IHDR), JPEG (SOFn marker), BMP and PGM/PPM. Returns false for formats
 // it cannot size from the header (the caller may then decode the image).
 // Throws InputError when the file cannot be read or a recognised header is
-// malformed.
+// malformed, including a side of 0 or above kMaxImageSide.
 bool readImageSize(const std::string& path, int* width, int* height);
+
+// The longest image side the readers accept (2^20 px: far beyond any camera,
+// and width * height * channels stays well inside size_t and int indexing).
+constexpr int kMaxImageSide = 1 << 20;
 
 // Writes a binary PGM (1 channel) or PPM (3 channels).
 void writePnm(const std::string& path, const ImageU8& image);

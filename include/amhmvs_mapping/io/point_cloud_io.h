@@ -17,6 +17,7 @@ struct PointCloud {
   std::vector<Eigen::Vector3f> normals;
   std::vector<std::array<uint8_t, 3>> colors;  // RGB
   std::vector<float> confidence;
+  std::vector<uint32_t> counts;  // points merged into each (a voxel map's export); not written to files
 
   size_t size() const { return points.size(); }
   // Empty when consistent; otherwise which attribute has the wrong length or
@@ -45,7 +46,12 @@ void writePointCloud(const std::string& path, const PointCloud& cloud);
 // scalar property type is accepted; other elements are skipped (binary: only
 // when they have no list properties). Throws InputError naming the file and
 // the problem for other formats, missing x/y/z, list properties in the vertex
-// element, truncated data and non-finite coordinates.
+// element, truncated data and non-finite coordinates. Allocations are bounded
+// by what the file can hold: a vertex count larger than the data (or than
+// kMaxPlyVertices) is refused before any memory is reserved.
 PointCloud readPly(const std::string& path);
+
+// The most vertices readPly accepts (2^28: 3 GiB of float positions).
+constexpr size_t kMaxPlyVertices = size_t{1} << 28;
 
 }  // namespace amhmvs

@@ -64,18 +64,29 @@
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
 #include "amhmvs_mapping/io/point_cloud_io.h"
+#include "amhmvs_mapping/mapping/keyframe_point.h"
 
 namespace amhmvs {
 
-// One depth map to fuse.
+// One depth map to fuse. Its images are borrowed (no copy on the way in:
+// the keyframe store's own maps, or DepthMapImages); they must outlive the
+// fusion call.
 struct FusionView {
   int id = -1;
   PinholeCamera camera;  // at the depth map's resolution
-  ImageF depth;          // 1 channel, z-depth (metres); NaN/inf/<= 0 = none
-  ImageF normal;         // 3 channels, unit normals in the camera frame
-  ImageF cost;           // optional (empty or 1 channel): see FusionOptions::max_cost
-  ImageU8 color;         // optional (empty, 1 or 3 channels RGB), same size
+  ImageViewF depth;      // 1 channel, z-depth (metres); NaN/inf/<= 0 = none
+  ImageViewF normal;     // 3 channels, unit normals in the camera frame
+  ImageViewF cost;       // optional (empty or 1 channel): see FusionOptions::max_cost
+  ImageViewU8 color;     // optional (empty, 1 or 3 channels RGB), same size
   std::vector<int> source_ids;  // views to check against, best first
+};
+
+// The owned images of one depth map, for callers that read or make them
+// (files, tests); borrow() makes its FusionView.
+struct DepthMapImages {
+  ImageF depth, normal, cost;
+  ImageU8 color;
+  FusionView borrow(int id, const PinholeCamera& camera) const;
 };
 
 struct FusionOptions {
@@ -101,26 +112,16 @@ struct FusionOptions {
   std::string validate() const;
 };
 
-struct FusedPoint {
-  Eigen::Vector3f position = Eigen::Vector3f::Zero();  // reference camera frame
-  Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();   // unit, reference camera frame
-  uint8_t r = 0, g = 0, b = 0;
-  // Agreeing sources / sources in which X projected in front and inside the
-  // image onto a pixel not fused before, in (0, 1] (with min_consistent_views
-  // 0 it can be 0).
-  float confidence = 0;
-  uint16_t consistent_views = 0;  // agreeing sources (the reference not counted)
-};
 
 struct FusedViewPoints {
   int view_id = -1;
   PinholeCamera camera;  // the pose the points were fused with
-  std::vector<FusedPoint> points;
+  KeyframePoints points;
 };
 
 struct FusionResult {
   std::vector<FusedViewPoints> views;  // one per input view, ascending id
-  size_t candidate_pixels = 0;  // reference pixels with a valid depth and normal
+  size_t candidate_pixels = 0;  // reference pixels with a valid depth and normal (of views with enough sources)
   size_t pointCount() const;
 };
 
@@ -134,7 +135,7 @@ FusionResult fuseDepthMaps(const std::vector<FusionView>& views, const FusionOpt
 
 // A fused point moved to the world frame with the (possibly updated) pose of
 // its reference camera.
-FusedPoint toWorld(const FusedPoint& point, const PinholeCamera& camera);
+KeyframePoint toWorld(const KeyframePoint& point, const PinholeCamera& camera);
 
 // All points in the world frame, with each view's stored camera; colours,
 // normals and confidences filled.

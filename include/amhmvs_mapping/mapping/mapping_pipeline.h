@@ -67,7 +67,7 @@ struct PipelineOutput {
   KeyframeResult result;  // result.times: the stages, queue wait included
 };
 
-// Counters since construction or the last reset (typed: the nodelet's
+// Counters since construction (drops) or the last reset (the rest) (typed: the nodelet's
 // diagnostics and amhmvs_map's summary list them with pipelineStatFields()).
 struct PipelineStats {
   // Input.
@@ -150,7 +150,8 @@ class MappingPipeline {
   void pushPoseUpdate(int64_t id, const Eigen::Isometry3d& camera_to_world);
   // Forgets every queued and stored keyframe and the map at the start of the
   // next step(); the queue is cleared at once. Returns the keyframes discarded
-  // from the queue. Counters restart from zero.
+  // from the queue. Counters of work and state restart
+  // from zero at once; drop counters keep counting (lost input stays visible).
   size_t requestReset();
   // New mapper and estimator options, applied at the start of the next step()
   // (a new voxel size rebuilds the map). Invalid options are refused there

@@ -90,7 +90,7 @@ struct FusedKeyframe {
   double stamp = 0;                     // the keyframe's stamp
   PinholeCamera camera;                 // the pose it was fused with
   std::vector<int64_t> consistency_ids;  // the other depth maps it was checked against
-  bool again = false;                   // fused before (refined): its points replace the earlier ones
+  bool again = false;                   // fused before (refined), with or without points: they are replaced
   KeyframePoints points;                // fused points, camera frame
   VoxelMapUpdate map_update;
 };
@@ -196,6 +196,7 @@ class OnlineMapper {
     std::vector<int64_t> sources;
     double score = 0;  // total selection score
     int refinements = 0;
+    bool fused = false;  // fused once (even with no point): a later fusion is "again"
   };
   // The consistency views of a keyframe with a depth map (see step 5).
   std::vector<int64_t> consistencyViews(int64_t id) const;

@@ -4,7 +4,7 @@
 //   VoxelMap map(options);
 //   map.addKeyframe(id, camera_to_world, points);  // points in the camera frame
 //   map.updatePose(id, new_camera_to_world);       // loop closure
-//   MapCloud cloud = map.exportCloud();            // one point per voxel, world
+//   PointCloud cloud = map.exportCloud();          // one point per voxel, world
 //
 // Each voxel keeps double sums of its points (position relative to the voxel
 // centre, normal, colour, confidence) and a count, so removing a keyframe
@@ -40,17 +40,10 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-namespace amhmvs {
+#include "amhmvs_mapping/io/point_cloud_io.h"
+#include "amhmvs_mapping/mapping/keyframe_point.h"
 
-// One dense point of a keyframe, in that keyframe's camera frame.
-// (Minimal local definition; the fusion module may provide its own.)
-struct KeyframePoint {
-  Eigen::Vector3f position = Eigen::Vector3f::Zero();
-  Eigen::Vector3f normal = Eigen::Vector3f::Zero();  // unit, or zero when unknown
-  uint8_t rgb[3] = {0, 0, 0};
-  float confidence = 1.0f;  // >= 0
-};
-using KeyframePoints = std::vector<KeyframePoint>;
+namespace amhmvs {
 
 struct VoxelMapOptions {
   double leaf_size = 0.02;        // voxel edge, metres
@@ -64,16 +57,6 @@ struct VoxelMapOptions {
 
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;
-};
-
-// The exported cloud, world frame, one entry per voxel (struct of arrays).
-struct MapCloud {
-  std::vector<Eigen::Vector3f> positions;            // mean of the voxel's points
-  std::vector<Eigen::Vector3f> normals;              // normalised mean; zero when they cancel out
-  std::vector<Eigen::Matrix<uint8_t, 3, 1>> colors;  // rounded mean RGB
-  std::vector<float> confidences;                    // mean confidence
-  std::vector<uint32_t> counts;                      // points merged into the voxel
-  size_t size() const { return positions.size(); }
 };
 
 // What one addKeyframe / updatePose did.
@@ -107,7 +90,11 @@ class VoxelMap {
   const Eigen::Isometry3d& pose(int64_t id) const;
   std::vector<int64_t> keyframeIds() const;  // order of addition, oldest first
 
-  MapCloud exportCloud() const;  // voxels in ascending key order (deterministic)
+  // One point per voxel, world frame, voxels in ascending key order
+  // (deterministic): the mean position, the normalised mean normal (zero when
+  // the normals cancel out), the rounded mean colour, the mean confidence and
+  // the number of points merged (PointCloud::counts).
+  PointCloud exportCloud() const;
   size_t voxelCount() const { return voxels_.size(); }
   size_t keyframeCount() const { return keyframes_.size(); }
   size_t storedPointCount() const { return stored_points_; }

@@ -35,8 +35,16 @@ struct MappingConfig {
   amhmvs::OnlineMapperOptions mapper = defaultMapperOptions();
 
   // --- Output ---
-  double map_publish_period = 2.0;   // seconds between republications of the global map
+  double map_publish_period = 2.0;   // at most one map publication per this many seconds (on change)
   double diagnostics_period = 1.0;   // seconds
+  // Diagnostics go WARN (and the log says which topics) when an input topic
+  // has no publisher, or stays silent this long while the others deliver.
+  double silence_timeout = 5.0;      // seconds
+  // Drops make diagnostics WARN while any happened within this window.
+  double drop_warning_window = 10.0;  // seconds
+  // Where ~save_map puts relative paths; empty: the directory roslaunch (or
+  // the node) was started from ($PWD).
+  std::string map_directory;
 
   // The mapping core's defaults for online use (a bounded store of 50).
   static amhmvs::OnlineMapperOptions defaultMapperOptions();

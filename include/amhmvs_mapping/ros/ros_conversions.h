@@ -16,16 +16,19 @@
 
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
-#include "amhmvs_mapping/mapping/voxel_map.h"
+#include "amhmvs_mapping/io/point_cloud_io.h"
+#include "amhmvs_mapping/mapping/keyframe_point.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 
 namespace amhmvs_mapping {
 
-// Whether the encoding is one the nodelet reads (mono8, rgb8, bgr8).
+// Whether the encoding is one the nodelet reads: mono8, mono16, rgb8, bgr8,
+// rgba8, bgra8, bayer_rggb8/bggr8/gbrg8/grbg8.
 bool supportedEncoding(const std::string& encoding);
 
-// mono8 -> 1 channel; rgb8 and bgr8 -> 3 channels RGB. Checks encoding, size,
-// step and data length.
+// Through cv_bridge: mono8 and mono16 (scaled to 8 bits) -> 1 channel; colour
+// (alpha dropped) and Bayer mosaics (debayered) -> 3 channels RGB. Checks
+// encoding, size, step and data length first.
 std::string imageFromMsg(const sensor_msgs::Image& msg, amhmvs::ImageU8* image);
 
 // Camera-to-world pose; rejects non-finite values and quaternions whose norm
@@ -55,8 +58,8 @@ sensor_msgs::ImagePtr depthPreviewMsg(const amhmvs::ImageF& depth, const std_msg
 // packed 0x00RRGGBB): one point per entry of `cloud` (the global map in the
 // fixed frame, or a keyframe's fused points in its optical frame). Entries
 // with a non-finite position or normal are left out: no NaN points.
-sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::MapCloud& cloud, const std_msgs::Header& header);
+sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::PointCloud& cloud, const std_msgs::Header& header);
 // A keyframe's fused points (camera frame) in the cloud layout.
-amhmvs::MapCloud keyframeCloud(const amhmvs::KeyframePoints& points);
+amhmvs::PointCloud keyframeCloud(const amhmvs::KeyframePoints& points);
 
 }  // namespace amhmvs_mapping

@@ -1,0 +1,68 @@
+// Outputs of the mapping nodelet (in its namespace):
+//   depth/image (REP-118 32FC1 z-depth, NaN invalid) + depth/camera_info,
+//   confidence/image, depth/preview (bgr8): per depth map, with the
+//     keyframe's own stamp and optical frame (late and refined maps too);
+//   keyframe_cloud: a keyframe's fused points (its optical frame), when it is
+//     fused (again, after a refinement);
+//   map: the global voxel map in the fixed frame, latched, published when it
+//     changed (at most once per ~map_publish_period) and to a new subscriber;
+//   keyframe_markers: keyframe frusta and the newest source links.
+// Each is built only while someone subscribes.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <mutex>
+
+#include <image_transport/image_transport.h>
+#include <ros/ros.h>
+#include <std_msgs/Header.h>
+
+#include "amhmvs_mapping/mapping/mapping_pipeline.h"
+#include "amhmvs_mapping/ros/mapping_config.h"
+
+namespace amhmvs_mapping {
+
+// The ROS header (stamp, optical frame) of each keyframe id: set by the input
+// threads, read by the worker when a keyframe's outputs are published.
+class KeyframeHeaders {
+ public:
+  void set(int64_t id, const std_msgs::Header& header);
+  // False when the id is unknown (e.g. forgotten by a reset).
+  bool get(int64_t id, std_msgs::Header* header) const;
+  void erase(int64_t id);
+  void clear();
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<int64_t, std_msgs::Header> headers_;
+};
+
+class MappingOutputs {
+ public:
+  // `on_map_subscriber`: called when a subscriber connects to `map` (the
+  // worker then publishes a current map at once).
+  MappingOutputs(ros::NodeHandle& nh, const MappingConfig& config, std::function<void()> on_map_subscriber);
+
+  // Publishes what one pipeline result produced.
+  void publish(const amhmvs::KeyframeResult& result, const KeyframeHeaders& headers,
+               const amhmvs::MappingPipeline& pipeline);
+  // Publishes the global map when it changed and the period has passed, or
+  // when `requested` (a new subscriber); only while someone subscribes.
+  void publishMap(const amhmvs::MappingPipeline& pipeline, bool requested);
+  uint64_t mapPublications() const { return map_publications_; }
+
+ private:
+  MappingConfig config_;
+  std::unique_ptr<image_transport::ImageTransport> it_;
+  image_transport::CameraPublisher depth_pub_;
+  image_transport::Publisher confidence_pub_, preview_pub_;
+  ros::Publisher cloud_pub_, map_pub_, markers_pub_;
+  uint64_t published_map_revision_ = 0;
+  bool published_map_ = false;
+  ros::WallTime last_map_publish_;
+  uint64_t map_publications_ = 0;
+};
+
+}  // namespace amhmvs_mapping

@@ -1,0 +1,378 @@
+#include "amhmvs_mapping/ros/mapping_inputs.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <nodelet/nodelet.h>
+#include <tf2/exceptions.h>
+
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mapping/undistortion.h"
+#include "amhmvs_mapping/mvs/problem_builder.h"
+#include "amhmvs_mapping/ros/ros_conversions.h"
+
+namespace amhmvs_mapping {
+namespace {
+constexpr double kReportPeriod = 5.0;  // seconds between reports of one drop reason
+}
+
+const std::vector<InputStatField>& inputStatFields() {
+  // Names are the diagnostics keys (README, rostests).
+  static const std::vector<InputStatField> fields = {
+      {"frames_received", &InputStats::frames_received},
+      {"ignored_while_paused", &InputStats::ignored_while_paused},
+      {"frames_not_keyframes", &InputStats::frames_not_keyframes},
+      {"keyframes_sent", &InputStats::keyframes_sent},
+      {"dropped: encoding", &InputStats::dropped_encoding},
+      {"dropped: bad_pose", &InputStats::dropped_bad_pose},
+      {"dropped: bad_camera_info", &InputStats::dropped_bad_camera_info},
+      {"dropped: bad_keyframe", &InputStats::dropped_bad_keyframe},
+      {"dropped: stamp_backwards", &InputStats::dropped_stamp_backwards},
+      {"dropped: missing_tf", &InputStats::dropped_missing_tf},
+      {"dropped: bad_pose_update", &InputStats::dropped_bad_pose_update},
+  };
+  return fields;
+}
+
+MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const MappingConfig& config,
+                             Callbacks callbacks)
+    : config_(config), callbacks_(std::move(callbacks)), started_(ros::WallTime::now()) {
+  keyframe_poses_sub_ = nh.subscribe("keyframe_poses", 10, &MappingInputs::keyframePosesCallback, this);
+  if (config_.input_mode == "keyframe") {
+    keyframe_sub_ = nh.subscribe("keyframe", 10, &MappingInputs::keyframeCallback, this);
+    watch(keyframe_sub_.getTopic(), [this] { return keyframe_sub_.getNumPublishers(); });
+    return;
+  }
+  it_.reset(new image_transport::ImageTransport(nh));
+  const uint32_t q = config_.sync_queue_size;
+  image_filter_.reset(new image_transport::SubscriberFilter(
+      *it_, "image", q, image_transport::TransportHints("raw", ros::TransportHints(), pnh)));
+  info_filter_.reset(new message_filters::Subscriber<sensor_msgs::CameraInfo>(nh, "camera_info", q));
+  // Arrivals of each topic, before synchronisation (what is silent?).
+  const size_t image = watch(image_filter_->getTopic(),
+                             [this] { return image_filter_->getSubscriber().getNumPublishers(); });
+  image_filter_->registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
+      [this, image](const sensor_msgs::ImageConstPtr&) { noteArrival(image); }));
+  const size_t info = watch(info_filter_->getTopic(), [this] { return info_filter_->getSubscriber().getNumPublishers(); });
+  info_filter_->registerCallback(boost::function<void(const sensor_msgs::CameraInfoConstPtr&)>(
+      [this, info](const sensor_msgs::CameraInfoConstPtr&) { noteArrival(info); }));
+  const ros::Duration max_interval(config_.sync_max_interval);
+  if (config_.input_mode == "pose") {
+    pose_filter_.reset(new message_filters::Subscriber<geometry_msgs::PoseStamped>(nh, "pose", q));
+    const size_t pose = watch(pose_filter_->getTopic(), [this] { return pose_filter_->getSubscriber().getNumPublishers(); });
+    pose_filter_->registerCallback(boost::function<void(const geometry_msgs::PoseStampedConstPtr&)>(
+        [this, pose](const geometry_msgs::PoseStampedConstPtr&) { noteArrival(pose); }));
+    PoseSync policy(q);
+    policy.setMaxIntervalDuration(max_interval);
+    pose_sync_.reset(new message_filters::Synchronizer<PoseSync>(static_cast<const PoseSync&>(policy), *image_filter_,
+                                                                 *info_filter_, *pose_filter_));
+    pose_sync_->registerCallback(&MappingInputs::poseCallback, this);
+  } else if (config_.input_mode == "odometry") {
+    odometry_filter_.reset(new message_filters::Subscriber<nav_msgs::Odometry>(nh, "odom", q));
+    const size_t odom = watch(odometry_filter_->getTopic(),
+                              [this] { return odometry_filter_->getSubscriber().getNumPublishers(); });
+    odometry_filter_->registerCallback(boost::function<void(const nav_msgs::OdometryConstPtr&)>(
+        [this, odom](const nav_msgs::OdometryConstPtr&) { noteArrival(odom); }));
+    OdometrySync policy(q);
+    policy.setMaxIntervalDuration(max_interval);
+    odometry_sync_.reset(new message_filters::Synchronizer<OdometrySync>(
+        static_cast<const OdometrySync&>(policy), *image_filter_, *info_filter_, *odometry_filter_));
+    odometry_sync_->registerCallback(&MappingInputs::odometryCallback, this);
+  } else {
+    tf_buffer_.reset(new tf2_ros::Buffer());
+    tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_, nh));
+    CameraSync policy(q);
+    policy.setMaxIntervalDuration(max_interval);
+    camera_sync_.reset(new message_filters::Synchronizer<CameraSync>(static_cast<const CameraSync&>(policy),
+                                                                     *image_filter_, *info_filter_));
+    camera_sync_->registerCallback(&MappingInputs::cameraCallback, this);
+  }
+}
+
+MappingInputs::~MappingInputs() {
+  pose_sync_.reset();
+  odometry_sync_.reset();
+  camera_sync_.reset();
+  odometry_filter_.reset();
+  image_filter_.reset();
+  info_filter_.reset();
+  pose_filter_.reset();
+  keyframe_sub_.shutdown();
+  keyframe_poses_sub_.shutdown();
+}
+
+void MappingInputs::setPaused(bool paused) {
+  std::lock_guard<std::mutex> lock(input_mutex_);
+  paused_ = paused;
+}
+
+void MappingInputs::restart() {
+  std::lock_guard<std::mutex> lock(input_mutex_);
+  last_stamp_ = ros::Time();
+  have_last_keyframe_ = false;
+}
+
+void MappingInputs::setKeyframePicking(double min_translation, double min_rotation_deg) {
+  std::lock_guard<std::mutex> lock(input_mutex_);
+  config_.keyframe_min_translation = min_translation;
+  config_.keyframe_min_rotation_deg = min_rotation_deg;
+}
+
+InputStats MappingInputs::stats() const {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  return stats_;
+}
+
+size_t MappingInputs::watch(const std::string& name, std::function<uint32_t()> publishers) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  topics_.push_back({name, std::move(publishers), ros::WallTime()});
+  return topics_.size() - 1;
+}
+
+void MappingInputs::noteArrival(size_t topic) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  topics_[topic].last_arrival = ros::WallTime::now();
+}
+
+std::vector<std::string> MappingInputs::silenceProblems(double silence_s) const {
+  std::vector<std::string> problems;
+  const ros::WallTime now = ros::WallTime::now();
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  const auto recent = [&](const ros::WallTime& t) { return !t.isZero() && (now - t).toSec() < silence_s; };
+  std::string delivering;  // a topic that delivers now
+  for (const Topic& topic : topics_)
+    if (recent(topic.last_arrival)) delivering = topic.name;
+  for (const Topic& topic : topics_) {
+    if (topic.publishers() == 0) {
+      problems.push_back("no publisher on " + topic.name);
+    } else if (!delivering.empty() && !recent(topic.last_arrival)) {
+      std::ostringstream line;
+      line << "nothing on " << topic.name << " for " << (topic.last_arrival.isZero() ? (now - started_).toSec()
+                                                                                      : (now - topic.last_arrival).toSec())
+           << " s while " << delivering << " delivers";
+      problems.push_back(line.str());
+    }
+  }
+  // Every topic delivers but no frame came out of the synchroniser.
+  const bool all_deliver = topics_.size() > 1 && std::all_of(topics_.begin(), topics_.end(), [&](const Topic& t) {
+                             return recent(t.last_arrival);
+                           });
+  const bool synchronised = recent(last_synchronised_) || (now - started_).toSec() < silence_s;
+  if (all_deliver && !synchronised && config_.input_mode != "keyframe") {
+    std::ostringstream line;
+    line << "messages arrive on every input topic but none synchronise for " << silence_s
+         << " s: their stamps differ by more than ~sync_max_interval (" << config_.sync_max_interval << " s)";
+    problems.push_back(line.str());
+  }
+  return problems;
+}
+
+void MappingInputs::noteSynchronised() {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  last_synchronised_ = ros::WallTime::now();
+  if (keyframe_sub_) topics_[0].last_arrival = last_synchronised_;  // keyframe mode: the one topic
+}
+
+void MappingInputs::count(uint64_t InputStats::*counter) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  ++(stats_.*counter);
+}
+
+void MappingInputs::drop(uint64_t InputStats::*counter, const std::string& detail) {
+  std::string reason = "input";
+  for (const InputStatField& field : inputStatFields())
+    if (field.value == counter) reason = field.name;
+  uint64_t total;
+  bool report;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    total = ++(stats_.*counter);
+    const ros::WallTime now = ros::WallTime::now();
+    ros::WallTime& last = last_report_[reason];
+    report = last.isZero() || (now - last).toSec() >= kReportPeriod;
+    if (report) last = now;
+  }
+  if (report) ROS_ERROR("%s: %s [%lu so far]", reason.c_str(), detail.c_str(), static_cast<unsigned long>(total));
+}
+
+// ---------------------------------------------------------------- callbacks ---
+
+void MappingInputs::keyframeCallback(const amhmvs_mapping::KeyframeConstPtr& msg) {
+  noteSynchronised();
+  Frame frame;
+  frame.id = msg->keyframe_id;
+  frame.header.stamp = msg->header.stamp;
+  frame.header.frame_id = !msg->image.header.frame_id.empty() ? msg->image.header.frame_id
+                                                              : msg->camera_info.header.frame_id;
+  // Aliasing pointers: share ownership of the keyframe message, no copy.
+  frame.image = sensor_msgs::ImageConstPtr(msg, &msg->image);
+  frame.info = sensor_msgs::CameraInfoConstPtr(msg, &msg->camera_info);
+  frame.min_depth = msg->min_depth;
+  frame.max_depth = msg->max_depth;
+  for (const geometry_msgs::Point& p : msg->sparse_points) frame.sparse_points.emplace_back(p.x, p.y, p.z);
+  offer(std::move(frame), msg->camera_to_world, false);
+}
+
+void MappingInputs::keyframePosesCallback(const amhmvs_mapping::KeyframePosesConstPtr& msg) {
+  for (const amhmvs_mapping::KeyframePose& entry : msg->poses) {
+    Eigen::Isometry3d pose;
+    const std::string problem = poseFromMsg(entry.camera_to_world, &pose);
+    if (!problem.empty()) {
+      drop(&InputStats::dropped_bad_pose_update, "keyframe " + std::to_string(entry.keyframe_id) + ": " + problem);
+      continue;
+    }
+    callbacks_.pose_update(entry.keyframe_id, pose);
+  }
+}
+
+void MappingInputs::poseCallback(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
+                                 const geometry_msgs::PoseStampedConstPtr& pose) {
+  offerImage(image, info, pose->header.frame_id, pose->pose);
+}
+
+void MappingInputs::odometryCallback(const sensor_msgs::ImageConstPtr& image,
+                                     const sensor_msgs::CameraInfoConstPtr& info,
+                                     const nav_msgs::OdometryConstPtr& odometry) {
+  offerImage(image, info, odometry->header.frame_id, odometry->pose.pose);
+}
+
+void MappingInputs::offerImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
+                               const std::string& pose_frame, const geometry_msgs::Pose& pose) {
+  noteSynchronised();
+  if (!pose_frame.empty() && pose_frame != config_.fixed_frame) {
+    ROS_WARN_ONCE("%s frame '%s' is not ~fixed_frame '%s': the poses are used as they are",
+                  config_.input_mode.c_str(), pose_frame.c_str(), config_.fixed_frame.c_str());
+  }
+  Frame frame;
+  frame.header = image->header;
+  frame.image = image;
+  frame.info = info;
+  offer(std::move(frame), pose, true);
+}
+
+void MappingInputs::cameraCallback(const sensor_msgs::ImageConstPtr& image,
+                                   const sensor_msgs::CameraInfoConstPtr& info) {
+  noteSynchronised();
+  // Polls with a wall-clock timeout: tf2's own timeout runs on ROS time,
+  // which stands still when a replayed bag ends (the callback would hang).
+  const std::string& source = image->header.frame_id;
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(config_.tf_timeout);
+  std::string error;
+  while (!tf_buffer_->canTransform(config_.fixed_frame, source, image->header.stamp, &error)) {
+    if (ros::WallTime::now() >= deadline || !ros::ok()) {
+      drop(&InputStats::dropped_missing_tf, "no transform " + config_.fixed_frame + " <- " + source + " within " +
+                                                std::to_string(config_.tf_timeout) + " s: " + error);
+      return;
+    }
+    error.clear();
+    ros::WallDuration(0.005).sleep();
+  }
+  geometry_msgs::TransformStamped transform;
+  try {
+    transform = tf_buffer_->lookupTransform(config_.fixed_frame, source, image->header.stamp);
+  } catch (const tf2::TransformException& e) {
+    drop(&InputStats::dropped_missing_tf, e.what());
+    return;
+  }
+  geometry_msgs::Pose pose;
+  pose.position.x = transform.transform.translation.x;
+  pose.position.y = transform.transform.translation.y;
+  pose.position.z = transform.transform.translation.z;
+  pose.orientation = transform.transform.rotation;
+  offerImage(image, info, config_.fixed_frame, pose);
+}
+
+void MappingInputs::offer(Frame frame, const geometry_msgs::Pose& pose, bool pick) {
+  count(&InputStats::frames_received);
+  {
+    std::lock_guard<std::mutex> lock(input_mutex_);
+    if (paused_) {
+      count(&InputStats::ignored_while_paused);
+      return;
+    }
+  }
+  if (!supportedEncoding(frame.image->encoding)) {
+    drop(&InputStats::dropped_encoding, "image encoding '" + frame.image->encoding +
+                                            "' is not mono8, mono16, rgb8, bgr8, rgba8, bgra8 or bayer_*8");
+    return;
+  }
+  std::string problem = poseFromMsg(pose, &frame.camera_to_world);
+  if (!problem.empty()) {
+    drop(&InputStats::dropped_bad_pose, problem);
+    return;
+  }
+  amhmvs::PinholeCamera camera;
+  problem = cameraFromMsg(*frame.info, frame.image->width, frame.image->height, frame.camera_to_world, &camera);
+  if (!problem.empty()) {
+    drop(&InputStats::dropped_bad_camera_info, problem);
+    return;
+  }
+  {
+    std::lock_guard<std::mutex> lock(input_mutex_);
+    if (!last_stamp_.isZero() && frame.header.stamp < last_stamp_) {
+      std::ostringstream out;
+      out << "stamp " << frame.header.stamp << " is before the previous input's " << last_stamp_
+          << " (call ~reset after a time jump)";
+      drop(&InputStats::dropped_stamp_backwards, out.str());
+      return;
+    }
+    last_stamp_ = frame.header.stamp;
+    if (pick) {
+      if (have_last_keyframe_) {
+        const double moved = (frame.camera_to_world.translation() - last_keyframe_pose_.translation()).norm();
+        const double turned = Eigen::AngleAxisd(last_keyframe_pose_.linear().transpose() *
+                                                frame.camera_to_world.linear()).angle() * 180.0 / M_PI;
+        if (moved < config_.keyframe_min_translation && turned < config_.keyframe_min_rotation_deg) {
+          count(&InputStats::frames_not_keyframes);
+          return;
+        }
+      }
+      frame.id = next_id_++;
+    }
+    have_last_keyframe_ = true;
+    last_keyframe_pose_ = frame.camera_to_world;
+  }
+  amhmvs::Keyframe keyframe;
+  try {
+    keyframe = toKeyframe(frame);
+  } catch (const amhmvs::InputError& e) {
+    drop(&InputStats::dropped_bad_keyframe, "keyframe " + std::to_string(frame.id) + ": " + e.what());
+    return;
+  }
+  count(&InputStats::keyframes_sent);
+  callbacks_.keyframe(std::move(keyframe), frame.header);
+}
+
+amhmvs::Keyframe MappingInputs::toKeyframe(const Frame& frame) const {
+  amhmvs::Keyframe keyframe;
+  keyframe.id = frame.id;
+  keyframe.stamp = frame.header.stamp.toSec();
+  std::string problem = imageFromMsg(*frame.image, &keyframe.image);
+  if (problem.empty())
+    problem = cameraFromMsg(*frame.info, keyframe.image.width, keyframe.image.height, frame.camera_to_world,
+                            &keyframe.camera);
+  amhmvs::Distortion distortion;
+  if (problem.empty()) problem = amhmvs::parseDistortion(frame.info->distortion_model, frame.info->D, &distortion);
+  if (!problem.empty()) throw amhmvs::InputError(problem);
+  // Undistorted to the pinhole with the same K (what depth/camera_info says).
+  if (!distortion.isZero()) keyframe.image = amhmvs::undistortImage(keyframe.image, keyframe.camera, distortion);
+  // Downscaled as the offline tools do (ProblemOptions::max_image_size).
+  amhmvs::ProblemOptions size_options;
+  size_options.max_image_size = config_.max_image_size;
+  int width = 0, height = 0;
+  amhmvs::scaledSize(keyframe.image.width, keyframe.image.height, size_options, &width, &height);
+  if (width != keyframe.image.width || height != keyframe.image.height) {
+    keyframe.image = amhmvs::resizeArea(keyframe.image, width, height);
+    keyframe.camera = keyframe.camera.resized(width, height);
+  }
+  const bool msg_range = frame.min_depth > 0 && frame.max_depth > frame.min_depth && std::isfinite(frame.max_depth);
+  if (msg_range) {
+    keyframe.depth_min = frame.min_depth;
+    keyframe.depth_max = frame.max_depth;
+  }
+  keyframe.sparse_points = frame.sparse_points;
+  return keyframe;
+}
+
+}  // namespace amhmvs_mapping

@@ -1,0 +1,109 @@
+#include "amhmvs_mapping/ros/mapping_outputs.h"
+
+#include <sensor_msgs/PointCloud2.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include "amhmvs_mapping/ros/keyframe_markers.h"
+#include "amhmvs_mapping/ros/ros_conversions.h"
+
+namespace amhmvs_mapping {
+namespace {
+// Frusta drawn to this fraction of the scene depth: visible, not cluttering.
+constexpr double kFrustumDepthFraction = 0.15;
+}  // namespace
+
+void KeyframeHeaders::set(int64_t id, const std_msgs::Header& header) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  headers_[id] = header;
+}
+
+bool KeyframeHeaders::get(int64_t id, std_msgs::Header* header) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto found = headers_.find(id);
+  if (found == headers_.end()) return false;
+  *header = found->second;
+  return true;
+}
+
+void KeyframeHeaders::erase(int64_t id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  headers_.erase(id);
+}
+
+void KeyframeHeaders::clear() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  headers_.clear();
+}
+
+MappingOutputs::MappingOutputs(ros::NodeHandle& nh, const MappingConfig& config,
+                               std::function<void()> on_map_subscriber)
+    : config_(config) {
+  it_.reset(new image_transport::ImageTransport(nh));
+  depth_pub_ = it_->advertiseCamera("depth/image", 5);
+  confidence_pub_ = it_->advertise("confidence/image", 5);
+  preview_pub_ = it_->advertise("depth/preview", 5);
+  cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("keyframe_cloud", 5);
+  // Latched: a late subscriber (rviz) gets the last map at once, and its
+  // connection asks the worker for a current one (no export without subscribers).
+  map_pub_ = nh.advertise<sensor_msgs::PointCloud2>(
+      "map", 1, [on_map_subscriber](const ros::SingleSubscriberPublisher&) { on_map_subscriber(); },
+      ros::SubscriberStatusCallback(), ros::VoidConstPtr(), true);
+  markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("keyframe_markers", 5);
+}
+
+void MappingOutputs::publish(const amhmvs::KeyframeResult& result, const KeyframeHeaders& headers,
+                             const amhmvs::MappingPipeline& pipeline) {
+  std_msgs::Header header;
+  if (!headers.get(result.id, &header)) return;  // forgotten by a reset meanwhile
+  if (markers_pub_.getNumSubscribers() > 0) {
+    std::vector<MarkerCamera> cameras;
+    pipeline.withMapper([&](const amhmvs::OnlineMapper& mapper) {
+      for (int64_t id : mapper.store().ids()) cameras.push_back({id, mapper.store().keyframe(id).camera});
+    });
+    std_msgs::Header fixed;
+    fixed.stamp = header.stamp;
+    fixed.frame_id = config_.fixed_frame;
+    const double frustum_depth = kFrustumDepthFraction * result.selection.scene_depth.depth;
+    markers_pub_.publish(keyframeMarkers(cameras, result.id, result.selection.source_ids, frustum_depth, fixed));
+  }
+  if (result.has_depth) {
+    if (depth_pub_.getNumSubscribers() > 0)
+      depth_pub_.publish(depthImageMsg(result.depth.depth, header), cameraInfoMsg(result.camera, header));
+    if (confidence_pub_.getNumSubscribers() > 0) confidence_pub_.publish(confidenceImageMsg(result.depth, header));
+    if (preview_pub_.getNumSubscribers() > 0) {
+      sensor_msgs::ImagePtr preview = depthPreviewMsg(result.depth.depth, header);
+      if (preview) preview_pub_.publish(preview);
+    }
+  }
+  // keyframe_cloud: each keyframe this result fused (this one, earlier ones
+  // that waited for enough consistency views, or a refined one again), with
+  // that keyframe's header.
+  if (cloud_pub_.getNumSubscribers() == 0) return;
+  for (const amhmvs::FusedKeyframe& fused : result.fused) {
+    std_msgs::Header fused_header;
+    if (headers.get(fused.id, &fused_header)) cloud_pub_.publish(cloudMsg(keyframeCloud(fused.points), fused_header));
+  }
+}
+
+void MappingOutputs::publishMap(const amhmvs::MappingPipeline& pipeline, bool requested) {
+  if (map_pub_.getNumSubscribers() == 0) return;  // a new subscriber's connection asks for one
+  const ros::WallTime now = ros::WallTime::now();
+  const bool due = (now - last_map_publish_).toSec() >= config_.map_publish_period;
+  sensor_msgs::PointCloud2Ptr msg;
+  pipeline.withMapper([&](const amhmvs::OnlineMapper& mapper) {
+    const bool changed = !published_map_ || mapper.mapRevision() != published_map_revision_;
+    if (!requested && !(changed && due)) return;  // unchanged: the latched message stands
+    std_msgs::Header header;
+    header.stamp = ros::Time::now();
+    header.frame_id = config_.fixed_frame;
+    msg = cloudMsg(mapper.map().exportCloud(), header);
+    published_map_revision_ = mapper.mapRevision();
+  });
+  if (!msg) return;
+  published_map_ = true;
+  last_map_publish_ = now;
+  map_pub_.publish(msg);
+  ++map_publications_;
+}
+
+}  // namespace amhmvs_mapping

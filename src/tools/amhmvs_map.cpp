@@ -1,0 +1,165 @@
+// amhmvs_map: runs the online mapping pipeline (MappingPipeline) on a
+// recorded posed sequence, without ROS. See --help (map_options.cpp).
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <thread>
+
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/io/image_io.h"
+#include "amhmvs_mapping/mvs/problem_builder.h"
+#include "keyframe_picker.h"
+#include "map_options.h"
+#include "map_outputs.h"
+#include "tool_main.h"
+
+namespace amhmvs {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// The keyframe of a frame: its image decoded and scaled to max_image_size,
+// with the camera scaled alike, and the depth range given by the options or
+// the layout.
+Keyframe makeKeyframe(const PosedFrame& frame, const MapToolOptions& options) {
+  Keyframe keyframe;
+  keyframe.id = frame.id;
+  keyframe.stamp = frame.stamp;
+  keyframe.image = readImage(frame.image_path);
+  keyframe.camera = frame.camera;
+  if (!keyframe.image.sameSize(frame.camera.width, frame.camera.height)) {
+    throw InputError(frame.image_path + ": image is " + std::to_string(keyframe.image.width) + "x" +
+                     std::to_string(keyframe.image.height) + ", its camera " + std::to_string(frame.camera.width) +
+                     "x" + std::to_string(frame.camera.height));
+  }
+  ProblemOptions size;
+  size.max_image_size = options.max_image_size;
+  int width = 0, height = 0;
+  scaledSize(keyframe.image.width, keyframe.image.height, size, &width, &height);
+  if (width != keyframe.image.width || height != keyframe.image.height) {
+    keyframe.image = resizeArea(keyframe.image, width, height);
+    keyframe.camera = keyframe.camera.resized(width, height);
+  }
+  const bool given = options.depth_min > 0;  // the options' range wins over the layout's
+  keyframe.depth_min = given ? options.depth_min : frame.depth_min;
+  keyframe.depth_max = given ? options.depth_max : frame.depth_max;
+  return keyframe;
+}
+
+void logLine(MappingPipeline::LogLevel level, const std::string& line) {
+  const char* prefix = level == MappingPipeline::LogLevel::kError  ? "error: "
+                       : level == MappingPipeline::LogLevel::kWarn ? "warning: "
+                                                                   : "";
+  std::cerr << "amhmvs_map: " << prefix << line << "\n";
+}
+
+// Offline: each keyframe waits for the pipeline (push, then step until idle).
+void runOffline(const PosedSequence& sequence, const std::vector<size_t>& picked, const MapToolOptions& options,
+                MappingPipeline* pipeline, MapOutputs* outputs, MapRunTotals* totals) {
+  for (size_t index : picked) {
+    const Clock::time_point read_start = Clock::now();
+    Keyframe keyframe = makeKeyframe(sequence.frames[index], options);
+    totals->reading_s += secondsSince(read_start);
+    pipeline->push(std::move(keyframe));
+    ++totals->keyframes_pushed;
+    pipeline->runUntilIdle([outputs](const PipelineOutput& output) { outputs->add(output); });
+  }
+}
+
+// Realtime: a feeder thread pushes keyframes at the recording's stamps
+// (scaled by the rate), as a camera would; the pipeline's queue drops the
+// oldest when the estimator falls behind.
+void runRealtime(const PosedSequence& sequence, const std::vector<size_t>& picked, const MapToolOptions& options,
+                 MappingPipeline* pipeline, MapOutputs* outputs, MapRunTotals* totals) {
+  std::atomic<bool> fed{false};
+  std::exception_ptr feeder_error;
+  double reading_s = 0;
+  size_t pushed = 0;
+  std::thread feeder([&] {
+    try {
+      const Clock::time_point start = Clock::now();
+      const double first_stamp = sequence.frames[picked.front()].stamp;
+      for (size_t index : picked) {
+        const double due_s = (sequence.frames[index].stamp - first_stamp) / options.realtime_rate;
+        std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
+                                                  std::chrono::duration<double>(due_s)));
+        const Clock::time_point read_start = Clock::now();
+        Keyframe keyframe = makeKeyframe(sequence.frames[index], options);
+        reading_s += secondsSince(read_start);
+        pipeline->push(std::move(keyframe));
+        ++pushed;
+      }
+    } catch (...) {
+      feeder_error = std::current_exception();
+    }
+    fed = true;
+    pipeline->wake();
+  });
+  while (true) {
+    const bool all_fed = fed;  // read before the step: a push after it is seen next round
+    const std::vector<PipelineOutput> results = pipeline->step();
+    for (const PipelineOutput& output : results) outputs->add(output);
+    if (results.empty()) {
+      if (all_fed && pipeline->stats().idle) break;
+      pipeline->waitForWork(0.1);
+    }
+  }
+  feeder.join();
+  totals->reading_s = reading_s;
+  totals->keyframes_pushed = pushed;
+  if (feeder_error) std::rethrow_exception(feeder_error);
+}
+
+size_t framesLookedAt(size_t frames, const FrameSelection& selection) {
+  if (selection.start >= frames) return 0;
+  const size_t window = (frames - selection.start + selection.stride - 1) / selection.stride;
+  return selection.count > 0 ? std::min(window, selection.count) : window;
+}
+
+int run(const std::vector<std::string>& args) {
+  const std::string sequence_dir = args[0], output_dir = args[1];
+  MapToolOptions options = parseMapToolArguments(std::vector<std::string>(args.begin() + 2, args.end()));
+  const PosedSequence sequence = readPosedSequence(sequence_dir, options.sequence);
+  const std::vector<size_t> picked = pickKeyframes(sequence.frames, options.frames);
+  if (picked.empty()) {
+    throw InputError(sequence_dir + ": no frame selected (" + std::to_string(sequence.frames.size()) +
+                     " frames; check --start, --count)");
+  }
+  options.pipeline.queue_size = resolvedQueueSize(options, picked.size());
+  MapRunTotals totals;
+  totals.frames_looked_at = framesLookedAt(sequence.frames.size(), options.frames);
+  totals.keyframes_picked = picked.size();
+
+  MappingPipeline pipeline(options.pipeline, logLine);
+  if (!options.quiet) {
+    std::fprintf(stderr,
+                 "amhmvs_map: %s sequence, %zu frames, %zu looked at, %zu keyframes; backend %s; %s\n",
+                 sequence.layout.c_str(), sequence.frames.size(), totals.frames_looked_at, picked.size(),
+                 backendName(pipeline.backend()),
+                 options.realtime_rate > 0 ? "realtime replay" : "offline (every keyframe waits)");
+  }
+  MapOutputs outputs(output_dir, options, sequence);
+  const Clock::time_point start = Clock::now();
+  if (options.realtime_rate > 0) {
+    runRealtime(sequence, picked, options, &pipeline, &outputs, &totals);
+  } else {
+    runOffline(sequence, picked, options, &pipeline, &outputs, &totals);
+  }
+  totals.wall_s = secondsSince(start);
+  const std::string summary = outputs.finish(pipeline, totals);
+  if (!options.quiet) std::cerr << "amhmvs_map: " << summary << "\n";
+  std::cout << "amhmvs_map: wrote " << output_dir << "\n";
+  return 0;
+}
+
+}  // namespace
+}  // namespace amhmvs
+
+int main(int argc, char** argv) {
+  return amhmvs::runToolMain("amhmvs_map", amhmvs::mapToolUsage(), argc, argv, 2, true, amhmvs::run);
+}

@@ -1,0 +1,134 @@
+#include "map_options.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "tool_options.h"
+
+namespace amhmvs {
+
+namespace {
+
+// "x,y,z" in metres.
+Eigen::Vector3d parseVector(const std::string& option, const std::string& text) {
+  std::istringstream in(text);
+  std::string item;
+  std::vector<double> values;
+  while (std::getline(in, item, ',')) values.push_back(parseValue<double>(option, item));
+  if (values.size() != 3) throw InputError("option --" + option + ": expected x,y,z, got '" + text + "'");
+  return {values[0], values[1], values[2]};
+}
+
+}  // namespace
+
+MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) {
+  MapToolOptions options;
+  PipelineOptions& pipeline = options.pipeline;
+  FrameSelection& frames = options.frames;
+  PosedSequenceOptions& sequence = options.sequence;
+  for (size_t i = 0; i < arguments.size(); ++i) {
+    std::string name, value;
+    nextOption(arguments, &i, {"quiet", "write_depth", "write_previews", "write_clouds"}, &name, &value);
+    if (name == "quiet") options.quiet = parseSwitch(name, value);
+    else if (name == "write_depth") options.write_depth = parseSwitch(name, value);
+    else if (name == "write_previews") options.write_previews = parseSwitch(name, value);
+    else if (name == "write_clouds") options.write_clouds = parseSwitch(name, value);
+    else if (name == "backend") pipeline.backend = parseBackend(value);
+    else if (name == "max_image_size") options.max_image_size = parseValue<int>(name, value);
+    else if (name == "num_sources") pipeline.mapper.sources.max_sources = parseValue<int>(name, value);
+    else if (name == "scene_depth") pipeline.mapper.sources.default_scene_depth = parseValue<double>(name, value);
+    else if (name == "voxel_size") pipeline.mapper.map.leaf_size = parseValue<double>(name, value);
+    else if (name == "queue_size") options.queue_size = parseValue<size_t>(name, value);
+    else if (name == "start") frames.start = parseValue<size_t>(name, value);
+    else if (name == "count") frames.count = parseValue<size_t>(name, value);
+    else if (name == "stride") frames.stride = parseValue<size_t>(name, value);
+    else if (name == "keyframe_min_translation") frames.min_translation_m = parseValue<double>(name, value);
+    else if (name == "keyframe_min_rotation_deg") frames.min_rotation_deg = parseValue<double>(name, value);
+    else if (name == "realtime") options.realtime_rate = parseValue<double>(name, value);
+    else if (name == "depth_min") options.depth_min = parseValue<double>(name, value);
+    else if (name == "depth_max") options.depth_max = parseValue<double>(name, value);
+    else if (name == "intrinsics") sequence.color_intrinsics = parseIntrinsics(value);
+    else if (name == "color_offset") sequence.color_offset = parseVector(name, value);
+    else if (name == "frame_rate") sequence.seven_scenes_frame_rate_hz = parseValue<double>(name, value);
+    else if (name == "max_time_difference") sequence.tum_max_time_difference_s = parseValue<double>(name, value);
+    else if (name == "depth_factor") sequence.tum_depth_units_per_metre = parseValue<double>(name, value);
+    else if (name == "frame_period") sequence.frame_period_s = parseValue<double>(name, value);
+    else if (!setPatchMatchOption(name, value, &pipeline.estimator))
+      throw InputError("unknown option --" + name + " (see --help)");
+  }
+  std::string problems = pipeline.mapper.validate() + pipeline.estimator.validate() + sequence.validate();
+  auto require = [&problems](bool ok, const std::string& what) {
+    if (!ok) problems += what + "\n";
+  };
+  require(options.max_image_size >= 0, "max_image_size must be >= 0");
+  require(frames.stride >= 1, "stride must be >= 1");
+  require(frames.min_translation_m >= 0 && frames.min_rotation_deg >= 0,
+          "keyframe_min_translation and keyframe_min_rotation_deg must be >= 0");
+  require(options.realtime_rate >= 0 && std::isfinite(options.realtime_rate), "realtime must be >= 0");
+  require((options.depth_min == 0 && options.depth_max == 0) ||
+              (options.depth_min > 0 && options.depth_max > options.depth_min && std::isfinite(options.depth_max)),
+          "depth_min and depth_max: both unset, or 0 < depth_min < depth_max");
+  if (!problems.empty()) throw InputError("invalid options:\n" + problems);
+  return options;
+}
+
+size_t resolvedQueueSize(const MapToolOptions& options, size_t keyframes) {
+  if (options.queue_size > 0) return options.queue_size;
+  return options.realtime_rate > 0 ? PipelineOptions().queue_size : std::max<size_t>(1, keyframes);
+}
+
+std::string mapToolUsage() {
+  std::ostringstream out;
+  out << "Usage: amhmvs_map SEQUENCE_DIR OUTPUT_DIR [options]\n\n"
+         "Runs the online mapping pipeline (keyframe store, source selection, AMHMVS depth maps,\n"
+         "fusion, voxel map) on a recorded posed sequence, without ROS. SEQUENCE_DIR is one of\n"
+         "(detected from its files):\n"
+         "  MVSNet dense folder   images/, cams/NNNNNNNN_cam.txt[, pair.txt][, depth_gt/*.pfm]\n"
+         "  COLMAP workspace      sparse/[0/] (text or .bin, PINHOLE cameras), images/\n"
+         "  7-Scenes / tsdf-fusion frame-NNNNNN.color.jpg|png, .pose.txt (camera-to-world of the\n"
+         "                        depth camera), .depth.png (uint16 mm), camera-intrinsics.txt\n"
+         "  TUM RGB-D             rgb.txt, depth.txt, groundtruth.txt (associated by stamp)\n"
+         "Ground-truth depth, where the recording has it, is only used for the report.\n\n"
+         "Writes OUTPUT_DIR/: depth/NNNNNN.pfm (z-depth in metres at the processed resolution,\n"
+         "NaN invalid), clouds/NNNNNN.ply (each keyframe's fused points, world frame),\n"
+         "previews/NNNNNN.png (colour-mapped depth, with --write_previews), map.ply (the voxel\n"
+         "map), keyframes.csv and keyframes.jsonl (one row per result: new, late or refined\n"
+         "depth map; sources, depth range, stage times in ms, accuracy vs ground truth) and\n"
+         "summary.json. Files are written by a writer thread, off the pipeline's path.\n\n"
+         "Frames and keyframes:\n"
+         "  --start N --count N --stride N   frames looked at (default: all, stride 1)\n"
+         "  --keyframe_min_translation M     a keyframe after this much motion (default 0.05 m)\n"
+         "  --keyframe_min_rotation_deg D    ... or this much rotation (default 5; both 0: all)\n"
+         "  --realtime RATE                  feed frames at RATE x the recording's rate from\n"
+         "                                   another thread; a full queue drops the oldest\n"
+         "                                   (default: offline, every keyframe waits)\n"
+         "Layout options:\n"
+         "  --intrinsics K       colour intrinsics (7-Scenes, TUM): freiburg1|freiburg2|freiburg3|\n"
+         "                       ros|fitted7scenes|fx,fy,cx,cy. Default: 7-Scenes uses\n"
+         "                       camera-intrinsics.txt (colour taken as registered to depth);\n"
+         "                       TUM the freiburgN named by the folder, else ros (525/525/319.5/239.5)\n"
+         "  --color_offset X,Y,Z 7-Scenes: colour camera centre in the depth camera frame, metres\n"
+         "                       (default 0,0,0). For ../shared/data/redkitchen_7scenes use\n"
+         "                       --intrinsics fitted7scenes --color_offset -0.010,0,0\n"
+         "  --frame_rate HZ      7-Scenes: stamp = frame number / HZ (default 30)\n"
+         "  --max_time_difference S  TUM: association tolerance (default 0.02 s)\n"
+         "  --depth_factor F     TUM: depth units per metre (default 5000)\n"
+         "  --frame_period S     MVSNet, COLMAP: seconds between frames (default 1)\n"
+         "Pipeline options:\n"
+         "  --backend auto|cuda|cpu   (default auto)\n"
+         "  --max_image_size N   longest processed image side, 0 = as recorded (default 0)\n"
+         "  --num_sources N      source views per keyframe, at most (default 8)\n"
+         "  --scene_depth M      scene depth for source selection without a range (default 3)\n"
+         "  --depth_min M --depth_max M  depth range of every keyframe (default: from the\n"
+         "                       layout (MVSNet, COLMAP), else the neighbours' depth maps)\n"
+         "  --voxel_size M       map voxel edge (default 0.02)\n"
+         "  --queue_size N       keyframes waiting (default: all offline, 4 with --realtime)\n"
+         "Outputs:\n"
+         "  --write_depth[=0|1] (default 1)  --write_clouds[=0|1] (default 1)\n"
+         "  --write_previews[=0|1] (default 0)  --quiet (no progress lines)\n\n"
+         "Method options (defaults are the paper's):\n"
+      << describe(PatchMatchOptions());
+  return out.str();
+}
+
+}  // namespace amhmvs

@@ -1,0 +1,67 @@
+// What amhmvs_map writes, off the pipeline's critical path: every pipeline
+// output is copied into a job of the writer thread, which writes its depth
+// map, preview and fused clouds, compares the depth with the recording's
+// ground truth, appends a row to keyframes.csv / keyframes.jsonl and prints
+// the progress line. finish() writes map.ply and summary.json.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "amhmvs_mapping/eval/depth_metrics.h"
+#include "amhmvs_mapping/io/posed_sequence.h"
+#include "amhmvs_mapping/mapping/mapping_pipeline.h"
+#include "async_writer.h"
+#include "map_options.h"
+
+namespace amhmvs {
+
+// Counts of one run that the tool knows and the pipeline does not.
+struct MapRunTotals {
+  size_t frames_looked_at = 0;
+  size_t keyframes_picked = 0;
+  size_t keyframes_pushed = 0;
+  double wall_s = 0;       // first push to last output
+  double reading_s = 0;    // decoding and scaling images (before push)
+};
+
+class MapOutputs {
+ public:
+  // Creates the folders and the log files; throws InputError when it cannot.
+  MapOutputs(const std::string& dir, const MapToolOptions& options, const PosedSequence& sequence);
+  ~MapOutputs();
+
+  // Queues the outputs of one result (main thread).
+  void add(const PipelineOutput& output);
+  // Waits for the writer, then writes map.ply and summary.json. Returns a
+  // one-line summary for people.
+  std::string finish(const MappingPipeline& pipeline, const MapRunTotals& totals);
+
+ private:
+  struct Row;
+  void write(const Row& row);  // writer thread
+  // summary.json's text; `line`: the same in one line of prose.
+  std::string summaryJson(const MappingPipeline& pipeline, const MapRunTotals& totals, std::string* line);
+
+  std::string dir_;
+  MapToolOptions options_;
+  const PosedSequence& sequence_;
+  std::map<int64_t, size_t> frame_of_id_;
+  size_t results_ = 0;
+  // Writer thread state (read by the main thread only after finish()).
+  std::FILE* csv_ = nullptr;
+  std::FILE* jsonl_ = nullptr;
+  std::map<std::string, size_t> kinds_;
+  std::map<int64_t, DepthComparison> accuracy_;  // latest depth map of each keyframe
+  std::map<int64_t, std::vector<Eigen::Vector3f>> truth_points_;  // ground-truth surface, world
+  std::vector<double> total_ms_, estimate_ms_;
+  AsyncWriter writer_;  // last: stopped first
+};
+
+}  // namespace amhmvs

@@ -1,0 +1,67 @@
+// Option parsing shared by the amhmvs tools: "--name value", "--name=value"
+// and value-less switches, values parsed whole ("3abc" is refused).
+#pragma once
+
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mvs/patchmatch_options.h"
+
+namespace amhmvs {
+
+template <typename T>
+T parseValue(const std::string& option, const std::string& text) {
+  std::istringstream in(text);
+  T value;
+  if (!(in >> value) || !(in >> std::ws).eof()) {
+    throw InputError("option --" + option + ": '" + text + "' is not a valid value");
+  }
+  return value;
+}
+
+// Reads the option at arguments[*i] (advancing *i past its value): its name
+// without "--" and its value. A name in `switches` takes no separate value
+// (its value is "" unless given as --name=value). Throws InputError for a
+// positional argument or a missing value.
+inline void nextOption(const std::vector<std::string>& arguments, size_t* i,
+                       const std::set<std::string>& switches, std::string* name, std::string* value) {
+  const std::string& arg = arguments[*i];
+  if (arg.rfind("--", 0) != 0) throw InputError("unexpected argument '" + arg + "'");
+  *name = arg.substr(2);
+  value->clear();
+  const size_t eq = name->find('=');
+  if (eq != std::string::npos) {
+    *value = name->substr(eq + 1);
+    *name = name->substr(0, eq);
+  } else if (switches.count(*name)) {
+    // a switch without a value
+  } else if (*i + 1 < arguments.size()) {
+    *value = arguments[++*i];
+  } else {
+    throw InputError("option --" + *name + " needs a value");
+  }
+}
+
+// A switch's value: "" (given alone), 1/true/yes or 0/false/no.
+inline bool parseSwitch(const std::string& option, const std::string& value) {
+  if (value.empty() || value == "1" || value == "true" || value == "yes") return true;
+  if (value == "0" || value == "false" || value == "no") return false;
+  throw InputError("option --" + option + ": '" + value + "' is not a switch value (1/0, true/false)");
+}
+
+// Sets the method option `name` (patchMatchOptionTable()) from text; false
+// when there is no such option. Throws InputError for a bad value.
+inline bool setPatchMatchOption(const std::string& name, const std::string& value, PatchMatchOptions* options) {
+  for (const OptionInfo& info : patchMatchOptionTable()) {
+    if (info.name == name) {
+      info.set(*options, value);
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace amhmvs

@@ -1,0 +1,77 @@
+// Shared by the libFuzzer targets of test/fuzz: the readers take file paths,
+// so each input is written to a per-process scratch file (or folder); a reader
+// may throw InputError (bad input, refused) and nothing else: any other
+// exception, a crash, a sanitizer report or a leak is a finding.
+#pragma once
+
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "amhmvs_mapping/core/error.h"
+
+namespace amhmvs {
+namespace fuzz {
+
+// A folder of this process under $TMPDIR (or /tmp), created once.
+inline const std::string& scratchDir() {
+  static const std::string dir = [] {
+    const char* tmp = std::getenv("TMPDIR");
+    const std::string path = std::string(tmp ? tmp : "/tmp") + "/amhmvs_fuzz_" +
+                             std::to_string(static_cast<long>(getpid()));
+    std::filesystem::create_directories(path);
+    return path;
+  }();
+  return dir;
+}
+
+// Writes bytes to scratchDir()/name (creating parent folders) and returns the path.
+inline std::string writeScratch(const std::string& name, const uint8_t* data, size_t size) {
+  const std::string path = scratchDir() + "/" + name;
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path());
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
+  return path;
+}
+
+// Splits an input into `parts` pieces at the separator line "\n--8<--\n"
+// (the seed script joins the files of a multi-file format with it); missing
+// pieces are empty.
+inline std::vector<std::string> splitParts(const uint8_t* data, size_t size, size_t parts) {
+  static const std::string kSeparator = "\n--8<--\n";
+  const std::string all(reinterpret_cast<const char*>(data), size);
+  std::vector<std::string> out;
+  size_t pos = 0;
+  while (out.size() + 1 < parts) {
+    const size_t cut = all.find(kSeparator, pos);
+    if (cut == std::string::npos) break;
+    out.push_back(all.substr(pos, cut - pos));
+    pos = cut + kSeparator.size();
+  }
+  out.push_back(all.substr(std::min(pos, all.size())));
+  out.resize(parts);
+  return out;
+}
+
+// Runs a reader: InputError is the refusal the readers promise; any other
+// exception aborts, which libFuzzer reports as a crash with this input.
+template <typename Read>
+void expectOnlyInputErrors(Read read) {
+  try {
+    read();
+  } catch (const InputError&) {
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "reader threw %s instead of InputError\n", e.what());
+    std::abort();
+  }
+}
+
+}  // namespace fuzz
+}  // namespace amhmvs

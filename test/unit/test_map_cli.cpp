@@ -1,0 +1,229 @@
+// The amhmvs_map command line: a synthetic room with exact ground truth, the
+// real redkitchen (7-Scenes) recording with its Kinect depth reprojected into
+// the colour camera, the MVSNet fountain, realtime replay with a small queue,
+// and its messages for bad input. Floors were measured on the CPU backend at
+// these settings (values in the comments) and set a little below.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "amhmvs_mapping/io/pfm.h"
+#include "amhmvs_mapping/io/point_cloud_io.h"
+#include "test_helpers.h"
+
+namespace amhmvs {
+namespace {
+
+namespace fs = std::filesystem;
+
+using test::CommandResult;
+using test::runTool;
+
+std::string readText(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The number after "key": that follows "section": in a one-line JSON text
+// (section "" = from the start); NaN when absent or null.
+double jsonNumber(const std::string& json, const std::string& section, const std::string& key) {
+  size_t pos = section.empty() ? 0 : json.find("\"" + section + "\":");
+  if (pos == std::string::npos) return NAN;
+  pos = json.find("\"" + key + "\":", pos);
+  if (pos == std::string::npos) return NAN;
+  const char* start = json.c_str() + pos + key.size() + 3;
+  char* end = nullptr;
+  const double value = std::strtod(start, &end);
+  return end == start ? NAN : value;
+}
+
+size_t lineCount(const std::string& path) {
+  std::ifstream in(path);
+  size_t lines = 0;
+  for (std::string line; std::getline(in, line);) lines += !line.empty();
+  return lines;
+}
+
+std::string id6(long id) {
+  char name[16];
+  std::snprintf(name, sizeof(name), "%06ld", id);
+  return name;
+}
+
+// A synthetic room sequence (amhmvs_synthetic) shared by the tests below.
+class MapCliRoom : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new test::TempDir;
+    // Rendered at 320x240 and mapped at 160x120: the ground-truth surface is
+    // sampled twice as finely as the map.
+    const CommandResult r = runTool("amhmvs_synthetic", dir_->file("room") +
+                                                            " --scene room --views 6 --width 320 --height 240");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+  static std::string room() { return dir_->file("room"); }
+  static test::TempDir* dir_;
+};
+test::TempDir* MapCliRoom::dir_ = nullptr;
+
+TEST_F(MapCliRoom, MapsTheRoomWithExactGroundTruth) {
+  test::TempDir out;
+  const CommandResult r = runTool("amhmvs_map", room() + " " + out.path() +
+                                                     " --backend cpu --max_image_size 160 --iterations 3 "
+                                                     "--num_sources 3 --write_previews");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::cout << r.output;
+  const std::string summary = readText(out.file("summary.json"));
+  EXPECT_EQ(jsonNumber(summary, "", "keyframes_picked"), 6) << summary;  // the room's views move > 5 cm
+  EXPECT_EQ(jsonNumber(summary, "results", "new") + jsonNumber(summary, "results", "late"), 6) << summary;
+  EXPECT_EQ(jsonNumber(summary, "stats", "dropped: queue_full"), 0) << summary;
+  // Every keyframe has a depth map, a preview and (all fused) a cloud.
+  for (long id = 0; id < 6; ++id) {
+    const ImageF depth = readPfm(out.file("depth/" + id6(id) + ".pfm"));
+    EXPECT_EQ(depth.width, 160);
+    EXPECT_TRUE(fs::exists(out.file("previews/" + id6(id) + ".png")));
+    EXPECT_TRUE(fs::exists(out.file("clouds/" + id6(id) + ".ply"))) << id;
+  }
+  EXPECT_GT(readPly(out.file("map.ply")).size(), 1000u);
+  // One row per result in both logs (plus the CSV header).
+  const size_t results = static_cast<size_t>(jsonNumber(summary, "results", "new") +
+                                             jsonNumber(summary, "results", "late") +
+                                             jsonNumber(summary, "results", "refined") +
+                                             jsonNumber(summary, "results", "source_only"));
+  EXPECT_EQ(lineCount(out.file("keyframes.jsonl")), results);
+  EXPECT_EQ(lineCount(out.file("keyframes.csv")), results + 1);
+  // Both JSON files parse (strictly: no NaN), every row with its fields.
+  const CommandResult parsed = test::runCommand(
+      "python3 -c 'import json, sys; json.load(open(sys.argv[1])); "
+      "rows = [json.loads(l) for l in open(sys.argv[2])]; "
+      "print(len(rows), sum(len(r[\"sources\"]) for r in rows), sum(len(r[\"fused_ids\"]) for r in rows))' " +
+      out.file("summary.json") + " " + out.file("keyframes.jsonl"));
+  ASSERT_EQ(parsed.exit_code, 0) << parsed.output;
+  EXPECT_EQ(parsed.output.substr(0, parsed.output.find(' ')), std::to_string(results)) << parsed.output;
+  // Measured (CPU): depth within 1/2/5/10 %: 61.6 / 83.1 / 91.0 / 92.7 %,
+  // completeness 99.1 %; map 11293 points, 87.3 % within 2 cm and 99.7 %
+  // within 5 cm of the true surface.
+  EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_1pct"), 58) << summary;
+  EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_5pct"), 89) << summary;
+  EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_10pct"), 90) << summary;
+  EXPECT_GT(jsonNumber(summary, "depth_accuracy", "completeness_pct"), 97) << summary;
+  EXPECT_GT(jsonNumber(summary, "map", "within_2cm_pct"), 84) << summary;
+  EXPECT_GT(jsonNumber(summary, "map", "within_5cm_pct"), 98) << summary;
+  EXPECT_GT(jsonNumber(summary, "map", "points"), 9000) << summary;
+}
+
+// Realtime replay at 100x the recording's rate (a frame every 10 ms) with a
+// queue of one: the estimator cannot keep up, the oldest waiting keyframe is
+// dropped, every keyframe that was not dropped gets exactly one first result.
+TEST_F(MapCliRoom, RealtimeReplayDropsWhatTheQueueCannotHold) {
+  test::TempDir out;
+  const CommandResult r = runTool("amhmvs_map", room() + " " + out.path() +
+                                                     " --backend cpu --max_image_size 96 --iterations 2 "
+                                                     "--num_sources 2 --realtime 100 --queue_size 1 "
+                                                     "--write_depth=0 --write_clouds=0");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string summary = readText(out.file("summary.json"));
+  EXPECT_EQ(jsonNumber(summary, "", "keyframes_pushed"), 6) << summary;
+  EXPECT_EQ(jsonNumber(summary, "stats", "keyframes_received"), 6) << summary;
+  const double dropped = jsonNumber(summary, "stats", "dropped: queue_full");
+  EXPECT_GE(dropped, 1) << summary;
+  EXPECT_EQ(jsonNumber(summary, "results", "new") + jsonNumber(summary, "results", "source_only"), 6 - dropped)
+      << summary;
+  EXPECT_FALSE(fs::exists(out.file("depth")));
+  EXPECT_FALSE(fs::exists(out.file("clouds")));
+  EXPECT_TRUE(fs::exists(out.file("map.ply")));
+}
+
+TEST(MapCli, HelpAndBadInput) {
+  const CommandResult help = runTool("amhmvs_map", "--help");
+  EXPECT_EQ(help.exit_code, 0);
+  for (const char* option : {"--backend", "--max_image_size", "--num_sources", "--iterations", "--start", "--count",
+                             "--stride", "--keyframe_min_translation", "--keyframe_min_rotation_deg", "--queue_size",
+                             "--voxel_size", "--realtime", "--write_depth", "--write_previews", "--write_clouds",
+                             "--intrinsics", "--color_offset", "7-Scenes", "TUM RGB-D", "COLMAP", "MVSNet"}) {
+    EXPECT_NE(help.output.find(option), std::string::npos) << option;
+  }
+  EXPECT_EQ(runTool("amhmvs_map", "").exit_code, 2);
+  EXPECT_EQ(runTool("amhmvs_map", "only_one_argument").exit_code, 2);
+  test::TempDir dir;
+  auto expectFailure = [&](const std::string& arguments, const std::string& needle1, const std::string& needle2) {
+    const CommandResult r = runTool("amhmvs_map", arguments);
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    EXPECT_NE(r.output.find(needle1), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(needle2), std::string::npos) << r.output;
+  };
+  expectFailure(dir.file("missing") + " " + dir.file("out"), "missing", "does not exist");
+  dir.write("other/notes.txt", "x");
+  expectFailure(dir.file("other") + " " + dir.file("out"), "other", "not a posed sequence");
+  expectFailure(dir.file("other") + " " + dir.file("out") + " --bogus 1", "unknown option", "--bogus");
+  expectFailure(dir.file("other") + " " + dir.file("out") + " --intrinsics kinect", "kinect", "freiburg1");
+  dir.write("tum/rgb.txt", "1.0 rgb/1.png\n");
+  dir.write("tum/groundtruth.txt", "1.0 0 0 0 0 0 0\n");
+  expectFailure(dir.file("tum") + " " + dir.file("out"), "groundtruth.txt: line 1", "8 fields");
+}
+
+// The real redkitchen recording (7-Scenes layout, Kinect v1 at 15 Hz here):
+// 40 frames at 160x120, 3 iterations, with the fitted colour registration of
+// ../shared/data/README.md. Its ground truth is raw Kinect depth reprojected
+// into the colour camera: good to a few per cent, so floors at 5 and 10 %.
+TEST(MapCli, RedkitchenSevenScenesAgainstKinectDepth) {
+  AMHMVS_REQUIRE_DATA(sequence, "redkitchen_7scenes");
+  test::TempDir out;
+  const CommandResult r = runTool(
+      "amhmvs_map", sequence + " " + out.path() +
+                        " --backend cpu --max_image_size 160 --count 40 --iterations 3 --intrinsics fitted7scenes"
+                        " --color_offset=-0.010,0,0 --depth_min 0.5 --depth_max 4.5 --scene_depth 2 --num_sources 4");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::cout << r.output;
+  const std::string summary = readText(out.file("summary.json"));
+  // Measured (CPU): 8 keyframes of 40 frames (6 new, 2 late, 4 refined);
+  // depth within 5/10 %: 47.8 / 65.2 %, completeness 97.9 %; map 312 points,
+  // 37.5 % within 2 cm and 93.6 % within 5 cm of the Kinect surface.
+  EXPECT_EQ(jsonNumber(summary, "", "keyframes_picked"), 8) << summary;
+  EXPECT_EQ(jsonNumber(summary, "results", "new") + jsonNumber(summary, "results", "late"), 8) << summary;
+  EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_5pct"), 45) << summary;
+  EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_10pct"), 62) << summary;
+  EXPECT_GT(jsonNumber(summary, "depth_accuracy", "completeness_pct"), 95) << summary;
+  EXPECT_GT(jsonNumber(summary, "map", "within_5cm_pct"), 90) << summary;
+  EXPECT_GT(jsonNumber(summary, "map", "points"), 250) << summary;
+  const ImageF depth = readPfm(out.file("depth/000042.pfm"));
+  EXPECT_EQ(depth.width, 160);
+  EXPECT_EQ(depth.height, 120);
+}
+
+// The MVSNet fountain (no dense ground truth): the first 5 views at 192x128,
+// depth ranges from the cam files.
+TEST(MapCli, FountainDenseFolderUsesItsDepthRanges) {
+  AMHMVS_REQUIRE_DATA(sequence, "mvsnet/fountain_x0.25");
+  test::TempDir out;
+  const CommandResult r = runTool("amhmvs_map", sequence + " " + out.path() +
+                                                    " --backend cpu --max_image_size 192 --count 5 --iterations 3"
+                                                    " --num_sources 3 --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string summary = readText(out.file("summary.json"));
+  // Measured (CPU): 5 keyframes (4 new, 1 late, 4 refined), map 8840 points.
+  EXPECT_EQ(jsonNumber(summary, "", "keyframes_picked"), 5) << summary;
+  EXPECT_EQ(jsonNumber(summary, "results", "new") + jsonNumber(summary, "results", "late"), 5) << summary;
+  EXPECT_GT(jsonNumber(summary, "map", "points"), 8000) << summary;
+  EXPECT_NE(summary.find("\"depth_accuracy\": null"), std::string::npos) << summary;
+  const std::string rows = readText(out.file("keyframes.jsonl"));
+  EXPECT_NE(rows.find("\"depth_range_source\": \"given\""), std::string::npos) << rows;
+  EXPECT_EQ(rows.find("neighbour"), std::string::npos) << rows;
+  const ImageF depth = readPfm(out.file("depth/000004.pfm"));
+  EXPECT_EQ(depth.width, 192);
+  EXPECT_EQ(depth.height, 128);
+}
+
+}  // namespace
+}  // namespace amhmvs

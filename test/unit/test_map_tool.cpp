@@ -1,0 +1,117 @@
+// The parts of amhmvs_map below its command line: keyframe picking by
+// motion, option parsing, and the writer thread.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <stdexcept>
+#include <vector>
+
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mapping/keyframe_store.h"
+#include "async_writer.h"
+#include "keyframe_picker.h"
+#include "map_options.h"
+#include "test_helpers.h"
+
+namespace amhmvs {
+namespace {
+
+// Frames along x, 1 cm apart, turning 1 degree per frame about y from frame 20 on.
+std::vector<PosedFrame> walkingFrames(int count) {
+  std::vector<PosedFrame> frames(count);
+  for (int i = 0; i < count; ++i) {
+    frames[i].id = i;
+    frames[i].camera = test::centredCamera(64, 48, 50);
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(i < 20 ? 0.01 * i : 0.2, 0, 0);
+    if (i >= 20) pose.linear() = Eigen::AngleAxisd((i - 20) * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    setCameraToWorld(pose, &frames[i].camera);
+  }
+  return frames;
+}
+
+TEST(MapTool, PicksKeyframesByTranslationAndRotation) {
+  const std::vector<PosedFrame> frames = walkingFrames(40);
+  FrameSelection selection;  // thresholds between the steps (no ties to round)
+  selection.min_translation_m = 0.045;
+  selection.min_rotation_deg = 4.5;
+  const std::vector<size_t> picked = pickKeyframes(frames, selection);
+  // 0, 5, 10, 15, 20 by translation (5 cm), then 25, 30, 35 by rotation (5 deg).
+  EXPECT_EQ(picked, (std::vector<size_t>{0, 5, 10, 15, 20, 25, 30, 35}));
+  selection.min_rotation_deg = 0;
+  EXPECT_EQ(pickKeyframes(frames, selection), (std::vector<size_t>{0, 5, 10, 15, 20}));
+  selection.min_translation_m = 0;
+  EXPECT_EQ(pickKeyframes(frames, selection).size(), 40u);  // both 0: every frame
+  selection.start = 3;
+  selection.stride = 4;
+  selection.count = 5;
+  EXPECT_EQ(pickKeyframes(frames, selection), (std::vector<size_t>{3, 7, 11, 15, 19}));
+  selection.start = 40;
+  EXPECT_TRUE(pickKeyframes(frames, selection).empty());
+}
+
+TEST(MapTool, ParsesOptionsAndRefusesBadOnes) {
+  const MapToolOptions options = parseMapToolArguments(
+      {"--backend", "cpu", "--max_image_size=256", "--num_sources", "4", "--iterations", "3", "--count", "20",
+       "--stride", "2", "--keyframe_min_translation", "0.1", "--voxel_size", "0.05", "--intrinsics",
+       "fitted7scenes", "--color_offset=-0.010,0,0", "--write_previews", "--write_clouds=0", "--depth_min",
+       "0.5", "--depth_max", "4"});
+  EXPECT_EQ(options.pipeline.backend, Backend::kCpu);
+  EXPECT_EQ(options.max_image_size, 256);
+  EXPECT_EQ(options.pipeline.mapper.sources.max_sources, 4);
+  EXPECT_EQ(options.pipeline.estimator.num_iterations, 3);
+  EXPECT_EQ(options.frames.count, 20u);
+  EXPECT_EQ(options.frames.stride, 2u);
+  EXPECT_EQ(options.frames.min_translation_m, 0.1);
+  EXPECT_EQ(options.pipeline.mapper.map.leaf_size, 0.05);
+  EXPECT_EQ(options.sequence.color_intrinsics.fx, 528);
+  EXPECT_EQ(options.sequence.color_offset.x(), -0.010);
+  EXPECT_TRUE(options.write_previews);
+  EXPECT_FALSE(options.write_clouds);
+  EXPECT_TRUE(options.write_depth);
+  EXPECT_EQ(options.depth_max, 4);
+  // Queue: offline holds every keyframe; realtime the pipeline's default.
+  EXPECT_EQ(resolvedQueueSize(options, 17), 17u);
+  MapToolOptions realtime = options;
+  realtime.realtime_rate = 1;
+  EXPECT_EQ(resolvedQueueSize(realtime, 17), PipelineOptions().queue_size);
+  realtime.queue_size = 2;
+  EXPECT_EQ(resolvedQueueSize(realtime, 17), 2u);
+
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--bogus", "1"}), "unknown option", "--bogus");
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--count", "x"}), "--count", "'x'");
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--stride", "0"}), "stride", ">= 1");
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--depth_min", "2"}), "depth_min", "depth_max");
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--color_offset", "1,2"}), "--color_offset", "x,y,z");
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--write_depth=maybe"}), "--write_depth", "maybe");
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--iterations", "0"}), "iterations", "1..100");
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--voxel_size"}), "--voxel_size", "needs a value");
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"stray"}), "unexpected argument", "stray");
+}
+
+TEST(MapTool, WriterRunsJobsInOrderAndReportsTheFirstError) {
+  std::vector<int> done;
+  {
+    AsyncWriter writer(2);
+    for (int i = 0; i < 50; ++i) writer.post([&done, i] { done.push_back(i); });
+    writer.finish();
+    EXPECT_LE(writer.peakQueued(), 2u);  // bounded: post() waits for room
+  }
+  ASSERT_EQ(done.size(), 50u);
+  for (int i = 0; i < 50; ++i) EXPECT_EQ(done[i], i);
+
+  AsyncWriter failing(4);
+  std::atomic<int> after_error{0};
+  failing.post([] { throw std::runtime_error("disk full"); });
+  failing.post([&after_error] { ++after_error; });
+  try {
+    failing.finish();
+    ADD_FAILURE() << "finish() should rethrow";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "disk full");
+  }
+  EXPECT_EQ(after_error, 0);  // skipped once a job failed
+}
+
+}  // namespace
+}  // namespace amhmvs
