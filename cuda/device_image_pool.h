@@ -166,7 +166,11 @@ class DeviceImagePool {
   };
 
   size_t slotBytes() const { return static_cast<size_t>(width_) * height_; }
-  size_t budgetSlots() const { return slotBytes() ? budget_bytes_ / slotBytes() : 0; }
+  // Keyed images kept between estimates: what the budget holds, at most the
+  // GPU's layer count (small images under a large budget would exceed it).
+  size_t budgetSlots() const {
+    return slotBytes() ? std::min(budget_bytes_ / slotBytes(), static_cast<size_t>(max_layers_)) : 0;
+  }
 
   // Slots must hold the largest requested image; growing them drops every
   // resident image (their padding would be wrong), counted as evictions.

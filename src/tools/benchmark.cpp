@@ -173,15 +173,16 @@ std::string fusionTable(int runs) {
       << "| consistency views | median ms | min ms | points |\n|---|---|---|---|\n";
   const SyntheticWorld world = makeIndoorRoomWorld(1);
   const std::vector<PinholeCamera> cameras = makeSmoothTrajectory(9, 640, 480, 1);
+  std::vector<RenderedView> rendered;  // owns the images the fusion views borrow
+  for (int i = 0; i < 9; ++i) rendered.push_back(renderView(world, cameras[i], 1));
   std::vector<FusionView> all;
   for (int i = 0; i < 9; ++i) {
-    RenderedView view = renderView(world, cameras[i], 1);
     FusionView fusion;
     fusion.id = i;
-    fusion.camera = view.camera;
-    fusion.depth = std::move(view.depth);
-    fusion.normal = std::move(view.normal);
-    fusion.color = std::move(view.image);
+    fusion.camera = rendered[i].camera;
+    fusion.depth = rendered[i].depth;
+    fusion.normal = rendered[i].normal;
+    fusion.color = rendered[i].image;
     all.push_back(std::move(fusion));
   }
   for (int sources : {4, 8}) {

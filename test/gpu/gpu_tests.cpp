@@ -259,17 +259,30 @@ DepthProblem withoutKeys(DepthProblem problem) {
   return problem;
 }
 
+// Fountain x0.25 views at `max_image_size`, 4 sources each, images read once
+// (problems carry the view ids as image keys).
+struct FountainImages {
+  FountainImages(const std::string& data, int max_image_size)
+      : scene(readInputFolder(data + "/mvsnet/fountain_x0.25", 4)), images(scene, options(max_image_size)) {}
+  static ProblemOptions options(int max_image_size) {
+    ProblemOptions problem;
+    problem.max_sources = 4;
+    problem.max_image_size = max_image_size;
+    return problem;
+  }
+  Scene scene;
+  SceneImageCache images;
+};
+
 // The CUDA backend's pool of resident images: every fountain view at 384 px
 // as a reference with 4 sources, in order (each image serves ~5 problems).
 // Keyed problems must give the bytes of unkeyed ones with any budget; the
 // budget bounds what stays resident; evictions, uploads and hits are counted;
 // forget() makes the next use upload the (new) pixels.
 void residentPool(const std::string& data) {
-  const Scene scene = readInputFolder(data + "/mvsnet/fountain_x0.25", 4);
-  ProblemOptions problem_options;
-  problem_options.max_sources = 4;
-  problem_options.max_image_size = 384;
-  SceneImageCache images(scene, problem_options);
+  FountainImages fountain(data, 384);
+  const Scene& scene = fountain.scene;
+  SceneImageCache& images = fountain.images;
   PatchMatchOptions options;
   options.num_iterations = 3;  // enough to use every image; halves the time
   EstimatorResources roomy, tight;
@@ -399,15 +412,11 @@ int main(int argc, char** argv) {
       expect(map.depth.width == problem.reference_camera.width, "sanitizer scene ran");
       // The resident pool's paths too: keyed images, a pool that grows
       // (copying its layers), evictions and a keyed reference.
-      const Scene scene = readInputFolder(data + "/mvsnet/fountain_x0.25", 4);
-      ProblemOptions small;
-      small.max_sources = 4;
-      small.max_image_size = 96;
-      SceneImageCache images(scene, small);
+      FountainImages fountain(data, 96);
       EstimatorResources resources;
       resources.device_image_budget_bytes = 6 * 96 * 64;
       DepthEstimator pooled(options, Backend::kCuda, resources);
-      for (int id : {0, 1, 2, 3, 9, 10}) pooled.estimate(images.makeProblem(id));
+      for (int id : {0, 1, 2, 3, 9, 10}) pooled.estimate(fountain.images.makeProblem(id));
       expect(pooled.deviceCacheStats().evictions > 0, "sanitizer: resident pool with evictions ran");
       return failures ? 1 : 0;
     }

@@ -92,7 +92,8 @@ struct DepthMap {
 // Machine resources of an estimator (not of the algorithm: results do not
 // depend on them).
 struct EstimatorResources {
-  // Device memory for keyed images kept between estimates (CUDA). One
+  // Device memory for keyed images kept between estimates (CUDA), at most as
+  // many images as the GPU has texture layers (2048 on an H100). One
   // estimate's own images are always held, even when they need more.
   size_t device_image_budget_bytes = size_t(256) << 20;
 
