@@ -154,8 +154,11 @@ bool cudaDeviceUsable(std::string* description) {
   if (status != cudaSuccess || count == 0) {
     cudaGetLastError();
     if (description) {
-      *description = status != cudaSuccess ? std::string("no usable GPU: ") + cudaGetErrorString(status)
-                                           : std::string("no GPU found");
+      // No driver or no device is the ordinary CPU-only machine: say so plainly.
+      const bool absent = status == cudaSuccess || status == cudaErrorNoDevice ||
+                          status == cudaErrorInsufficientDriver;
+      *description = absent ? std::string("no GPU found")
+                            : std::string("no usable GPU: ") + cudaGetErrorString(status);
     }
     return false;
   }

@@ -93,8 +93,7 @@ MappingPipeline::MappingPipeline(const PipelineOptions& options, Log log) : opti
       backend = Backend::kCuda;
     } else {
       report(LogLevel::kWarn, "backend",
-             "no GPU found, using the CPU (" + description +
-                 "); the CPU needs a small max_image_size (e.g. 256..320) for online rates");
+             description + ", using the CPU: it needs a small max_image_size (e.g. 256..320) for online rates");
       backend = Backend::kCpu;
     }
   }

@@ -15,6 +15,8 @@
 namespace amhmvs_mapping {
 namespace {
 constexpr double kReportPeriod = 5.0;  // seconds between reports of one drop reason
+// A stamp this far ahead of the clock would make every later input "backwards".
+constexpr double kMaxStampAheadSeconds = 86400;
 }
 
 const std::vector<InputStatField>& inputStatFields() {
@@ -29,6 +31,7 @@ const std::vector<InputStatField>& inputStatFields() {
       {"dropped: bad_camera_info", &InputStats::dropped_bad_camera_info},
       {"dropped: bad_keyframe", &InputStats::dropped_bad_keyframe},
       {"dropped: stamp_backwards", &InputStats::dropped_stamp_backwards},
+      {"dropped: bad_stamp", &InputStats::dropped_bad_stamp},
       {"dropped: missing_tf", &InputStats::dropped_missing_tf},
       {"dropped: bad_pose_update", &InputStats::dropped_bad_pose_update},
   };
@@ -306,6 +309,17 @@ void MappingInputs::offer(Frame frame, const geometry_msgs::Pose& pose, bool pic
   problem = cameraFromMsg(*frame.info, frame.image->width, frame.image->height, frame.camera_to_world, &camera);
   if (!problem.empty()) {
     drop(&InputStats::dropped_bad_camera_info, problem);
+    return;
+  }
+  if (frame.header.stamp.isZero()) {
+    drop(&InputStats::dropped_bad_stamp, "stamp is zero (the sender did not fill the header)");
+    return;
+  }
+  const ros::Time now = ros::Time::now();
+  if (!now.isZero() && (frame.header.stamp - now).toSec() > kMaxStampAheadSeconds) {
+    std::ostringstream out;
+    out << "stamp " << frame.header.stamp << " is more than a day ahead of the clock (" << now << ")";
+    drop(&InputStats::dropped_bad_stamp, out.str());
     return;
   }
   {

@@ -102,6 +102,13 @@ std::string cameraFromMsg(const sensor_msgs::CameraInfo& info, int width, int he
         << width << "x" << height;
     return out.str();
   }
+  // Every number of the message must be finite, also those not used here.
+  const auto allFinite = [](const auto& values) {
+    return std::all_of(std::begin(values), std::end(values), [](double v) { return std::isfinite(v); });
+  };
+  if (!allFinite(info.D)) return "camera_info D has a non-finite value";
+  if (!allFinite(info.R)) return "camera_info R has a non-finite value";
+  if (!allFinite(info.P)) return "camera_info P has a non-finite value";
   amhmvs::PinholeCamera c;
   c.fx = info.K[0];
   c.fy = info.K[4];

@@ -175,7 +175,7 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
               << " depth maps, backend " << backendName(estimator.backend())
               << (estimator.backend() == Backend::kCuda ? " on " + gpu : "") << "\n";
     if (options.backend == Backend::kAuto && estimator.backend() == Backend::kCpu) {
-      std::cerr << "amhmvs_depth: no GPU backend (" << gpu << "): running on the CPU\n";
+      std::cerr << "amhmvs_depth: " << gpu << ", running on the CPU\n";
     }
   }
   int written = 0;

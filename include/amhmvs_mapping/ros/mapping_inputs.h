@@ -57,12 +57,13 @@ struct InputStats {
   uint64_t dropped_bad_camera_info = 0;
   uint64_t dropped_bad_keyframe = 0;  // image and camera_info do not fit together, bad distortion
   uint64_t dropped_stamp_backwards = 0;
+  uint64_t dropped_bad_stamp = 0;  // zero (header not filled) or more than a day ahead of the clock
   uint64_t dropped_missing_tf = 0;
   uint64_t dropped_bad_pose_update = 0;
 
   uint64_t droppedTotal() const {
     return dropped_encoding + dropped_bad_pose + dropped_bad_camera_info + dropped_bad_keyframe +
-           dropped_stamp_backwards + dropped_missing_tf + dropped_bad_pose_update;
+           dropped_stamp_backwards + dropped_bad_stamp + dropped_missing_tf + dropped_bad_pose_update;
   }
 };
 
