@@ -38,6 +38,7 @@ set(AMHMVS_CORE_SOURCES
   src/io/pfm.cpp
   src/io/image_io.cpp
   src/io/colormap.cpp
+  src/io/background_writer.cpp
   src/io/mvsnet_folder.cpp
   src/io/colmap_model.cpp
   src/io/point_cloud_io.cpp
@@ -67,7 +68,8 @@ endif()
 
 add_library(amhmvs_core ${AMHMVS_CORE_SOURCES})
 target_include_directories(amhmvs_core PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
-target_link_libraries(amhmvs_core PUBLIC Eigen3::Eigen)
+find_package(Threads REQUIRED)
+target_link_libraries(amhmvs_core PUBLIC Eigen3::Eigen Threads::Threads)
 target_compile_features(amhmvs_core PUBLIC cxx_std_17)
 set_target_properties(amhmvs_core PROPERTIES POSITION_INDEPENDENT_CODE ON)
 target_compile_options(amhmvs_core PRIVATE

@@ -7,7 +7,7 @@
 
 function(amhmvs_unit_test_sources var)
   file(GLOB tests CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/test/unit/test_*.cpp)
-  set(tools depth_job synthetic_problem keyframe_picker map_options async_writer)
+  set(tools depth_job synthetic_problem keyframe_picker map_options)
   list(TRANSFORM tools PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/src/tools/)
   list(TRANSFORM tools APPEND .cpp)
   set(${var} ${tests} ${tools} PARENT_SCOPE)

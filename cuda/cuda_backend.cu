@@ -1,13 +1,16 @@
 // CUDA backend: the per-pixel algorithm of patchmatch_pixel.h, one thread per
 // pixel. All state stays on the device from upload to download; the host only
-// launches kernels (no per-iteration round trips).
+// launches kernels (no per-iteration round trips). Each estimator has one
+// stream, a pool of resident images (device_image_pool.h) and per-pixel work
+// buffers that are reused across estimates (grow only).
 #include <cuda_runtime.h>
 
+#include <cstring>
 #include <sstream>
 
 #include "../src/mvs/backends.h"
 #include "cuda_check.h"
-#include "layered_texture.h"
+#include "device_image_pool.h"
 
 namespace amhmvs {
 namespace mvs {
@@ -130,14 +133,14 @@ dim3 gridFor(int width, int height) {
 // Initialisation and all iterations, kernels queued back to back.
 template <class Window>
 void runPatchMatch(const PatchMatchParams& P, const GpuSampler& sampler, PixelState state,
-                   int iterations) {
+                   int iterations, cudaStream_t stream) {
   const dim3 block(kBlockX, kBlockY);
-  initializeKernel<Window><<<gridFor(P.width, P.height), block>>>(P, sampler, state);
+  initializeKernel<Window><<<gridFor(P.width, P.height), block, 0, stream>>>(P, sampler, state);
   AMHMVS_CUDA_CHECK_LAUNCH();
   const dim3 half_grid = gridFor((P.width + 1) / 2, P.height);
   for (int iteration = 0; iteration < iterations; ++iteration) {
     for (int colour = 0; colour < 2; ++colour) {
-      updateKernel<Window><<<half_grid, block>>>(P, sampler, state, iteration, colour);
+      updateKernel<Window><<<half_grid, block, 0, stream>>>(P, sampler, state, iteration, colour);
       AMHMVS_CUDA_CHECK_LAUNCH();
     }
   }
@@ -172,57 +175,135 @@ bool cudaDeviceUsable(std::string* description) {
   return true;
 }
 
-DepthMap estimateOnCuda(const PatchMatchOptions& options, const PatchMatchParams& P,
-                        const DepthProblem& problem) {
-  using cuda::DeviceBuffer;
-  cuda::CudaEvent start, stop;
-  start.record();
-  size_t free_before = 0, free_after = 0, total = 0;
-  AMHMVS_CUDA_CHECK(cudaMemGetInfo(&free_before, &total));
+// Per-pixel buffers of the estimates, reused (grow only).
+struct WorkBuffers {
+  cuda::DeviceBuffer<uint8_t> reference;
+  cuda::DeviceBuffer<Plane> planes;
+  cuda::DeviceBuffer<float> costs;
+  cuda::DeviceBuffer<uint32_t> selected;
+  cuda::DeviceBuffer<int8_t> best_view;
+  cuda::DeviceBuffer<float> raw_depth, depth, normal, cost;
 
+  void reserve(size_t pixels) {
+    reference.reserve(pixels);
+    planes.reserve(pixels);
+    costs.reserve(pixels);
+    selected.reserve(pixels);
+    best_view.reserve(pixels);
+    raw_depth.reserve(pixels);
+    depth.reserve(pixels);
+    normal.reserve(3 * pixels);
+    cost.reserve(pixels);
+  }
+  size_t bytes() const {
+    return reference.bytes() + planes.bytes() + costs.bytes() + selected.bytes() + best_view.bytes() +
+           raw_depth.bytes() + depth.bytes() + normal.bytes() + cost.bytes();
+  }
+};
+
+class CudaState {
+ public:
+  explicit CudaState(const EstimatorResources& resources) : pool(resources.device_image_budget_bytes) {}
+
+  cuda::CudaStream stream;
+  cuda::DeviceImagePool pool;
+  WorkBuffers work;
+  cuda::PinnedBuffer<uint8_t> source_staging, reference_staging;
+  cuda::CudaEvent start, uploaded, stop;
+};
+
+CudaState* createCudaState(const EstimatorResources& resources) { return new CudaState(resources); }
+void destroyCudaState(CudaState* state) { delete state; }
+void forgetOnCuda(CudaState& state, int64_t key) { state.pool.forget(key); }
+void forgetAllOnCuda(CudaState& state) { state.pool.forgetAll(); }
+
+DeviceCacheStats cudaCacheStats(const CudaState& state) {
+  DeviceCacheStats stats = state.pool.stats();
+  stats.work_bytes = state.work.bytes();
+  return stats;
+}
+
+namespace {
+
+// The images of `problem` in the pool (sources, then a keyed reference) and
+// the reference in the linear buffer the kernels read; sets each source's
+// layer in `P`. Everything is queued on the state's stream.
+void placeImages(CudaState& state, const DepthProblem& problem, PatchMatchParams* P) {
+  const cudaStream_t stream = state.stream.get();
+  std::vector<cuda::PoolRequest> requests;
+  for (size_t j = 0; j < problem.source_images.size(); ++j) {
+    requests.push_back({problem.source_images[j], problem.source_keys.empty() ? kNoImageKey : problem.source_keys[j]});
+  }
+  const bool keyed_reference = problem.reference_key != kNoImageKey;
+  // A keyed reference is a later keyframe's source: upload it once, into the pool.
+  if (keyed_reference) requests.push_back({problem.reference_image, problem.reference_key});
+  const std::vector<int> layers = state.pool.place(requests, stream, &state.source_staging);
+  for (int j = 0; j < P->num_sources; ++j) P->sources[j].layer = layers[j];
+
+  const ImageViewU8& reference = problem.reference_image;
+  const size_t pixels = reference.pixelCount();
+  if (keyed_reference) {
+    state.pool.copyToLinear(layers.back(), reference.width, reference.height, state.work.reference.get(), stream);
+  } else {
+    state.reference_staging.reserve(pixels);
+    std::memcpy(state.reference_staging.get(), reference.data, pixels);
+    state.work.reference.uploadAsync(state.reference_staging.get(), pixels, stream);
+  }
+}
+
+}  // namespace
+
+DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, const PatchMatchParams& params,
+                        const DepthProblem& problem) {
+  const cudaStream_t stream = state.stream.get();
+  PatchMatchParams P = params;
   const int width = P.width, height = P.height;
   const size_t pixels = static_cast<size_t>(width) * height;
-  DeviceBuffer<uint8_t> reference(pixels);
-  reference.upload(problem.reference_image.data.data());
-  std::vector<const ImageU8*> layers;
-  for (const ImageU8& image : problem.source_images) layers.push_back(&image);
-  cuda::LayeredTexture8 sources(layers);
-
-  DeviceBuffer<Plane> planes(pixels);
-  DeviceBuffer<float> costs(pixels);
-  DeviceBuffer<uint32_t> selected(pixels);
-  DeviceBuffer<int8_t> best_view(pixels);
-  const PixelState state{planes.get(), costs.get(), selected.get(), best_view.get()};
-  const GpuSampler sampler{reference.get(), width, height, sources.object()};
-  DeviceBuffer<float> raw_depth(pixels), depth(pixels), normal(3 * pixels), cost(pixels);
-  cuda::CudaEvent uploaded;
-  uploaded.record();
-
-  if (isPaperWindow(P.cost)) {
-    runPatchMatch<PaperWindow>(P, sampler, state, options.num_iterations);
-  } else {
-    runPatchMatch<RuntimeWindow>(P, sampler, state, options.num_iterations);
-  }
-  const dim3 block(kBlockX, kBlockY);
-  outputKernel<<<gridFor(width, height), block>>>(P, state, raw_depth.get(), normal.get(), cost.get());
-  AMHMVS_CUDA_CHECK_LAUNCH();
-  medianKernel<<<gridFor(width, height), block>>>(width, height, options.median_filter_size,
-                                                  raw_depth.get(), depth.get());
-  AMHMVS_CUDA_CHECK_LAUNCH();
-
-  AMHMVS_CUDA_CHECK(cudaMemGetInfo(&free_after, &total));
+  WorkBuffers& work = state.work;
   DepthMap out;
-  out.backend = Backend::kCuda;
-  out.gpu_memory_bytes = free_before > free_after ? free_before - free_after : 0;
-  out.depth = ImageF(width, height);
-  out.normal = ImageF(width, height, 3);
-  out.cost = ImageF(width, height);
-  depth.download(out.depth.data.data());
-  normal.download(out.normal.data.data());
-  cost.download(out.cost.data.data());
-  stop.record();
-  out.milliseconds = stop.millisecondsSince(start);
-  out.compute_milliseconds = stop.millisecondsSince(uploaded);
+  try {
+    state.start.record(stream);
+    work.reserve(pixels);
+    placeImages(state, problem, &P);
+    const PixelState pixel_state{work.planes.get(), work.costs.get(), work.selected.get(), work.best_view.get()};
+    const GpuSampler sampler{work.reference.get(), width, height, state.pool.texture()};
+    state.uploaded.record(stream);
+
+    if (isPaperWindow(P.cost)) {
+      runPatchMatch<PaperWindow>(P, sampler, pixel_state, options.num_iterations, stream);
+    } else {
+      runPatchMatch<RuntimeWindow>(P, sampler, pixel_state, options.num_iterations, stream);
+    }
+    const dim3 block(kBlockX, kBlockY);
+    outputKernel<<<gridFor(width, height), block, 0, stream>>>(P, pixel_state, work.raw_depth.get(),
+                                                               work.normal.get(), work.cost.get());
+    AMHMVS_CUDA_CHECK_LAUNCH();
+    medianKernel<<<gridFor(width, height), block, 0, stream>>>(width, height, options.median_filter_size,
+                                                               work.raw_depth.get(), work.depth.get());
+    AMHMVS_CUDA_CHECK_LAUNCH();
+
+    out.backend = Backend::kCuda;
+    out.depth = ImageF(width, height);
+    out.normal = ImageF(width, height, 3);
+    out.cost = ImageF(width, height);
+    work.depth.downloadAsync(out.depth.data.data(), pixels, stream);
+    work.normal.downloadAsync(out.normal.data.data(), 3 * pixels, stream);
+    work.cost.downloadAsync(out.cost.data.data(), pixels, stream);
+    state.stop.record(stream);
+    state.stream.synchronize();
+    state.pool.finish();
+  } catch (...) {
+    // Nothing half-uploaded may stay resident; the stream must be idle
+    // before the staging memory is reused.
+    cudaStreamSynchronize(stream);
+    state.pool.finish();
+    state.pool.forgetAll();
+    throw;
+  }
+  out.milliseconds = state.stop.millisecondsSince(state.start);
+  out.compute_milliseconds = state.stop.millisecondsSince(state.uploaded);
+  const DeviceCacheStats stats = cudaCacheStats(state);
+  out.gpu_memory_bytes = stats.pool_bytes + stats.work_bytes;
   return out;
 }
 

@@ -1,8 +1,8 @@
-// The source images of a depth map as one layered 8-bit texture with
-// hardware bilinear filtering. One texture object, indexed by layer, avoids
-// run-time indexing into an array of texture objects.
+// Source images as one layered 8-bit texture with hardware bilinear
+// filtering. One texture object, indexed by layer, avoids run-time indexing
+// into an array of texture objects.
 //
-// Images smaller than the largest are padded by repeating their last row and
+// Images smaller than the layers are padded by repeating their last row and
 // column, which reproduces clamp-to-edge addressing for each image exactly.
 #pragma once
 
@@ -18,25 +18,48 @@
 namespace amhmvs {
 namespace cuda {
 
+// Writes `image` into a layer of width x height texels (at least the image's
+// size), repeating its last column and row: clamp-to-edge for that image.
+inline void padLayer(ImageViewU8 image, int width, int height, uint8_t* layer) {
+  for (int y = 0; y < height; ++y) {
+    const uint8_t* source_row = &image.at(0, std::min(y, image.height - 1));
+    uint8_t* row = layer + static_cast<size_t>(y) * width;
+    std::copy(source_row, source_row + image.width, row);
+    std::fill(row + image.width, row + width, source_row[image.width - 1]);
+  }
+}
+
+// Bilinear, clamped, unnormalised coordinates, 8-bit texels read as [0, 1]:
+// what the estimator's kernels expect of the source images.
+inline cudaTextureObject_t makeLayeredTexture(cudaArray_t array) {
+  cudaResourceDesc resource = {};
+  resource.resType = cudaResourceTypeArray;
+  resource.res.array.array = array;
+  cudaTextureDesc texture = {};
+  texture.addressMode[0] = cudaAddressModeClamp;
+  texture.addressMode[1] = cudaAddressModeClamp;
+  texture.filterMode = cudaFilterModeLinear;
+  texture.readMode = cudaReadModeNormalizedFloat;  // 8-bit texels -> [0, 1]
+  texture.normalizedCoords = 0;
+  cudaTextureObject_t object = 0;
+  AMHMVS_CUDA_CHECK(cudaCreateTextureObject(&object, &resource, &texture, nullptr));
+  return object;
+}
+
+// A fixed set of images as one layered texture (the texture probe of the GPU
+// tests; the estimator keeps its images in a DeviceImagePool).
 class LayeredTexture8 {
  public:
-  explicit LayeredTexture8(const std::vector<const ImageU8*>& layers) {
+  explicit LayeredTexture8(const std::vector<ImageViewU8>& layers) {
     int width = 1, height = 1;
-    for (const ImageU8* image : layers) {
-      width = std::max(width, image->width);
-      height = std::max(height, image->height);
+    for (const ImageViewU8& image : layers) {
+      width = std::max(width, image.width);
+      height = std::max(height, image.height);
     }
     const int count = static_cast<int>(layers.size());
     std::vector<uint8_t> staging(static_cast<size_t>(width) * height * count);
     for (int l = 0; l < count; ++l) {
-      const ImageU8& image = *layers[l];
-      uint8_t* layer = staging.data() + static_cast<size_t>(l) * width * height;
-      for (int y = 0; y < height; ++y) {
-        const uint8_t* source_row = &image.at(0, std::min(y, image.height - 1));
-        uint8_t* row = layer + static_cast<size_t>(y) * width;
-        std::copy(source_row, source_row + image.width, row);
-        std::fill(row + image.width, row + width, source_row[image.width - 1]);
-      }
+      padLayer(layers[l], width, height, staging.data() + static_cast<size_t>(l) * width * height);
     }
     const cudaChannelFormatDesc format = cudaCreateChannelDesc<uint8_t>();
     AMHMVS_CUDA_CHECK(cudaMalloc3DArray(&array_, &format, make_cudaExtent(width, height, count),
@@ -47,17 +70,7 @@ class LayeredTexture8 {
     copy.extent = make_cudaExtent(width, height, count);
     copy.kind = cudaMemcpyHostToDevice;
     AMHMVS_CUDA_CHECK(cudaMemcpy3D(&copy));
-
-    cudaResourceDesc resource = {};
-    resource.resType = cudaResourceTypeArray;
-    resource.res.array.array = array_;
-    cudaTextureDesc texture = {};
-    texture.addressMode[0] = cudaAddressModeClamp;
-    texture.addressMode[1] = cudaAddressModeClamp;
-    texture.filterMode = cudaFilterModeLinear;
-    texture.readMode = cudaReadModeNormalizedFloat;  // 8-bit texels -> [0, 1]
-    texture.normalizedCoords = 0;
-    AMHMVS_CUDA_CHECK(cudaCreateTextureObject(&object_, &resource, &texture, nullptr));
+    object_ = makeLayeredTexture(array_);
   }
   ~LayeredTexture8() {
     if (object_) cudaDestroyTextureObject(object_);

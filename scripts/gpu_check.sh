@@ -6,7 +6,12 @@
 #   3. compiler resource report (registers, stack, spills),
 #   4. GPU tests: texture emulation, determinism, CPU/GPU agreement, accuracy,
 #   5. compute-sanitizer memcheck and racecheck on a small scene,
-#   6. the benchmark table.
+#   6. the benchmark table (estimator, fusion, online pipeline, memory replay),
+#   7. "baseline": the code of AMHMVS_BASELINE_TAR (a `git archive` of an
+#      earlier commit) built too; both amhmvs_depth binaries on the GPU:
+#      depth/normal/cost cmp-equal, and "depthwall": wall time per depth map
+#      of amhmvs_depth with all its outputs (fountain x0.25, x0.5, x1 and a
+#      640x480 synthetic room folder), median of 3 runs of the program.
 # Local use:  scripts/stage_gpu_data.sh, then through the device tool:
 #   bash scripts/gpu_check.sh   (with carry: [".gpu_data"])
 # Results land in $OUT (or ./gpu_results).
@@ -16,7 +21,7 @@ out=${OUT:-$here/gpu_results}
 mkdir -p "$out"
 data=/tmp/amhmvs_gpu_data
 arch=${AMHMVS_CUDA_ARCHITECTURES:-90}
-steps=${AMHMVS_GPU_STEPS:-"tests sanitize bench"}
+steps=${AMHMVS_GPU_STEPS:-"tests sanitize bench"}  # also: baseline depthwall profile variants
 status=0
 
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader | tee "$out/device.txt"
@@ -68,8 +73,66 @@ if [[ " $steps " == *" variants "* ]]; then
     $vb/amhmvs_benchmark "$data" --only fountain_x0.25 --runs 5 --out /dev/null | grep fountain
   done
 fi
+if [[ " $steps " == *" baseline "* ]]; then
+  # The earlier code, built alongside (amhmvs_depth only).
+  echo "== baseline build =="
+  rm -rf /tmp/amhmvs_base && mkdir -p /tmp/amhmvs_base
+  tar -xzf "${AMHMVS_BASELINE_TAR:-$here/.baseline.tar.gz}" -C /tmp/amhmvs_base || { echo "FAIL  no baseline tar"; status=1; }
+  cmake -S /tmp/amhmvs_base -B /tmp/amhmvs_base_build -DAMHMVS_CORE_ONLY=ON -DCMAKE_BUILD_TYPE=Release \
+    -DAMHMVS_CUDA_ARCHITECTURES="$arch" > "$out/cmake_base.log" 2>&1 && \
+  cmake --build /tmp/amhmvs_base_build -j 16 --target amhmvs_depth > "$out/build_base.log" 2>&1 || { echo "FAIL  baseline build"; status=1; }
+  echo "== GPU depth maps: this code vs the baseline (fountain x0.25, all views, 10 sources) =="
+  rm -rf /tmp/cmp_new /tmp/cmp_base
+  "$bin/amhmvs_depth" "$data/mvsnet/fountain_x0.25" /tmp/cmp_new --backend cuda --quiet
+  /tmp/amhmvs_base_build/amhmvs_depth "$data/mvsnet/fountain_x0.25" /tmp/cmp_base --backend cuda --quiet
+  differ=0
+  for f in /tmp/cmp_base/*/depth.pfm /tmp/cmp_base/*/normal.pfm /tmp/cmp_base/*/cost.pfm /tmp/cmp_base/*/depth.png; do
+    cmp -s "$f" "/tmp/cmp_new/${f#/tmp/cmp_base/}" || { echo "differs: ${f#/tmp/cmp_base/}"; differ=1; }
+  done
+  n=$(ls /tmp/cmp_base/*/depth.pfm | wc -l)
+  [ $differ = 0 ] && [ "$n" -gt 0 ] && echo "PASS  GPU outputs identical to the baseline ($n views x depth, normal, cost, png)" \
+    || { echo "FAIL  GPU outputs differ from the baseline"; status=1; }
+fi
+if [[ " $steps " == *" depthwall "* ]]; then
+  echo "== amhmvs_depth wall time per depth map (all outputs written; median of 3 runs) =="
+  if [ ! -d /tmp/synthetic_640 ]; then  # rendered as PNG, read here as PPM (no PNG decoder in this build)
+    "$bin/amhmvs_synthetic" /tmp/synthetic_640_png --scene room --views 11 --width 640 --height 480 > /dev/null && \
+    python3 -c "import sys; sys.path.insert(0, '$here/scripts'); import prepare_gpu_data as p; \
+p.convert_dense_folder('/tmp/synthetic_640_png', '/tmp/synthetic_640')"
+  fi
+  walltime() {  # program folder extra-args... -> median ms per map
+    local program=$1 folder=$2; shift 2
+    local times=()
+    for run in 1 2 3; do
+      rm -rf /tmp/wall_out
+      local t0=$(date +%s%N)
+      "$program" "$folder" /tmp/wall_out --backend cuda --quiet "$@" || return 1
+      local t1=$(date +%s%N)
+      local maps=$(ls /tmp/wall_out | wc -l)
+      times+=($(( (t1 - t0) / 1000 / maps )))
+    done
+    printf '%s\n' "${times[@]}" | sort -n | sed -n 2p | awk '{printf "%.1f", $1 / 1000}'
+  }
+  echo "| input | maps | baseline ms/map | this code ms/map | target (2x ACMH) |"
+  echo "|---|---|---|---|---|"
+  for row in "fountain_x0.25|$data/mvsnet/fountain_x0.25|43|" "fountain_x0.5|$data/mvsnet/fountain_x0.5|136|" \
+             "fountain_x1|$data/mvsnet/fountain_x1|564|" "synthetic 640x480 room, 4 sources|/tmp/synthetic_640|43|--num_sources 4"; do
+    IFS='|' read -r name folder target extra <<< "$row"
+    [ -d "$folder" ] || { echo "| $name | missing | | | |"; continue; }
+    maps=$(ls "$folder/cams" | wc -l)
+    base=$( [ -x /tmp/amhmvs_base_build/amhmvs_depth ] && walltime /tmp/amhmvs_base_build/amhmvs_depth "$folder" $extra || echo "-")
+    new=$(walltime "$bin/amhmvs_depth" "$folder" $extra || echo "failed")
+    echo "| $name | $maps | $base | $new | <= $target |"
+  done | tee "$out/depth_wall.md"
+  echo "where the time goes (this code, one more run each):"
+  for folder in "$data/mvsnet/fountain_x0.25" "$data/mvsnet/fountain_x0.5" "$data/mvsnet/fountain_x1" /tmp/synthetic_640; do
+    extra=""; [ "$folder" = /tmp/synthetic_640 ] && extra="--num_sources 4"
+    [ -d "$folder" ] && "$bin/amhmvs_depth" "$folder" /tmp/wall_out --backend cuda $extra 2>&1 | grep "ms in all" \
+      | sed "s|^|  $(basename $folder): |" | tee -a "$out/depth_wall.md"
+  done
+fi
 if [[ " $steps " == *" bench "* ]]; then
   echo "== benchmark =="
-  "$bin/amhmvs_benchmark" "$data" --out "$out/benchmark.md" --runs 5 --cpu-threads 2 || status=1
+  "$bin/amhmvs_benchmark" "$data" --out "$out/benchmark.md" --runs 5 --cpu-threads 2 ${AMHMVS_BENCH_FLAGS:-} || status=1
 fi
 exit $status

@@ -61,13 +61,18 @@ std::pair<float, float> robustRange(const ImageF& image, double low_pct, double 
     if (std::isfinite(v)) values.push_back(v);
   }
   if (values.empty()) throw InputError("robustRange: image has no finite values");
-  std::sort(values.begin(), values.end());
+  // Two order statistics per quantile by selection (linear time), the same
+  // values a full sort would put at those positions.
   auto quantile = [&](double p) {
     const double pos = p * static_cast<double>(values.size() - 1);
     const size_t lo = static_cast<size_t>(std::floor(pos));
     const size_t hi = std::min(values.size() - 1, lo + 1);
     const double f = pos - static_cast<double>(lo);
-    return static_cast<float>(values[lo] + f * (static_cast<double>(values[hi]) - values[lo]));
+    std::nth_element(values.begin(), values.begin() + lo, values.end());
+    const float at_lo = values[lo];
+    // After the selection everything past lo is >= values[lo]: its minimum is the next order statistic.
+    const float at_hi = hi == lo ? at_lo : *std::min_element(values.begin() + hi, values.end());
+    return static_cast<float>(at_lo + f * (static_cast<double>(at_hi) - at_lo));
   };
   return {quantile(low_pct), quantile(high_pct)};
 }

@@ -99,7 +99,7 @@ MappingPipeline::MappingPipeline(const PipelineOptions& options, Log log) : opti
     }
   }
   try {
-    estimator_.reset(new DepthEstimator(options.estimator, backend));
+    estimator_.reset(new DepthEstimator(options.estimator, backend, options.resources));
   } catch (const BackendError& e) {
     report(LogLevel::kError, "backend", std::string(backendName(backend)) + " backend failed (" + e.what() +
                                             "), using the CPU");
@@ -256,6 +256,7 @@ void MappingPipeline::applyPending() {
   std::lock_guard<std::mutex> lock(mapper_mutex_);
   if (reset) {
     mapper_->reset();
+    if (estimator_) estimator_->forgetAll();  // keyframe ids may be reused
     std::lock_guard<std::mutex> stats(stats_mutex_);
     stats_ = statsAfterReset(stats_);
   }
@@ -265,7 +266,7 @@ void MappingPipeline::applyPending() {
       if (!problems.empty()) throw InputError("estimator options:\n" + problems);
       mapper_->setOptions(next->first);  // a new voxel size rebuilds the map
       if (estimator_) {  // an injected estimator (tests) stays as it is
-        estimator_.reset(new DepthEstimator(next->second, estimator_->backend()));
+        estimator_.reset(new DepthEstimator(next->second, estimator_->backend(), options_.resources));
         cpu_estimator_.reset();
       }
       options_.mapper = mapper_->options();
@@ -334,6 +335,11 @@ bool MappingPipeline::run(const char* what, int64_t id, const std::function<bool
     return true;  // work was attempted
   }
   output.result.times.queue_wait_ms = queue_wait_ms;
+  // Keyframe ids are the estimator's image keys: an evicted keyframe's image
+  // leaves the GPU's resident pool too.
+  if (estimator_) {
+    for (int64_t id : output.result.evicted) estimator_->forget(id);
+  }
   account(output);
   outputs->push_back(std::move(output));
   return true;
@@ -448,5 +454,10 @@ void MappingPipeline::withMapper(const std::function<void(const OnlineMapper&)>&
 }
 
 Backend MappingPipeline::backend() const { return backend_; }
+
+DeviceCacheStats MappingPipeline::deviceCacheStats() const {
+  std::lock_guard<std::mutex> lock(mapper_mutex_);  // estimator_ is replaced under it
+  return estimator_ ? estimator_->deviceCacheStats() : DeviceCacheStats();
+}
 
 }  // namespace amhmvs

@@ -167,9 +167,13 @@ void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
   DepthProblem problem;
   problem.reference_camera = store_.keyframe(id).camera;
   problem.reference_image = store_.entry(id).grayImage();
+  // Keyframe ids as image keys: a GPU estimator uploads each keyframe once
+  // (the pipeline forgets a key when its keyframe leaves the store).
+  problem.reference_key = id;
   for (int64_t source : sources) {
     problem.source_cameras.push_back(store_.keyframe(source).camera);
     problem.source_images.push_back(store_.entry(source).grayImage());
+    problem.source_keys.push_back(source);
   }
   problem.depth_min = result->depth_range.min;
   problem.depth_max = result->depth_range.max;

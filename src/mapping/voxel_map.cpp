@@ -152,6 +152,7 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
   contribution.camera_to_world = camera_to_world;
   std::vector<PlacedPoint> placed;
   placed.reserve(points.size());
+  contribution.points.reserve(points.size());
   for (const KeyframePoint& point : points) {
     PlacedPoint p;
     if (!place(camera_to_world, point, &p)) {

@@ -13,8 +13,14 @@ PatchMatchParams makePatchMatchParams(const PatchMatchOptions& options,
 
 DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams& params,
                        const DepthProblem& problem);
-DepthMap estimateOnCuda(const PatchMatchOptions& options, const PatchMatchParams& params,
-                        const DepthProblem& problem);
+// Device state of one estimator: image pool, work buffers, stream.
+CudaState* createCudaState(const EstimatorResources& resources);
+void destroyCudaState(CudaState* state);
+DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options,
+                        const PatchMatchParams& params, const DepthProblem& problem);
+void forgetOnCuda(CudaState& state, int64_t key);
+void forgetAllOnCuda(CudaState& state);
+DeviceCacheStats cudaCacheStats(const CudaState& state);
 bool cudaDeviceUsable(std::string* description);
 
 }  // namespace mvs

@@ -9,8 +9,6 @@ namespace amhmvs {
 namespace mvs {
 namespace {
 
-HostImage8 hostImage(const ImageU8& image) { return {image.data.data(), image.width, image.height}; }
-
 // Initialisation and all iterations; the state is left in `state`.
 template <class Window>
 void runPatchMatch(const PatchMatchParams& P, const CpuSampler& sampler, PixelState state,
@@ -38,10 +36,10 @@ DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams&
                        const DepthProblem& problem) {
   const auto start = std::chrono::steady_clock::now();
   CpuSampler sampler{};
-  sampler.reference_image = hostImage(problem.reference_image);
+  sampler.reference_image = problem.reference_image;
   std::vector<std::unique_ptr<PaddedImage8>> padded;
   for (int j = 0; j < P.num_sources; ++j) {
-    padded.push_back(std::make_unique<PaddedImage8>(hostImage(problem.source_images[j])));
+    padded.push_back(std::make_unique<PaddedImage8>(problem.source_images[j]));
     sampler.sources[j] = padded.back().get();
   }
 

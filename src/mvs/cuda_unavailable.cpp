@@ -10,9 +10,18 @@ bool cudaDeviceUsable(std::string* description) {
   return false;
 }
 
-DepthMap estimateOnCuda(const PatchMatchOptions&, const PatchMatchParams&, const DepthProblem&) {
+// Never called: DepthEstimator refuses kCuda when cudaDeviceUsable() is false.
+class CudaState {};
+CudaState* createCudaState(const EstimatorResources&) {
   throw BackendError("this build has no CUDA backend (nvcc was not found)");
 }
+void destroyCudaState(CudaState* state) { delete state; }
+DepthMap estimateOnCuda(CudaState&, const PatchMatchOptions&, const PatchMatchParams&, const DepthProblem&) {
+  throw BackendError("this build has no CUDA backend (nvcc was not found)");
+}
+void forgetOnCuda(CudaState&, int64_t) {}
+void forgetAllOnCuda(CudaState&) {}
+DeviceCacheStats cudaCacheStats(const CudaState&) { return {}; }
 
 }  // namespace mvs
 }  // namespace amhmvs

@@ -26,7 +26,7 @@ Backend parseBackend(const std::string& name) {
 std::string DepthProblem::validate() const {
   std::ostringstream why;
   auto check_view = [&](const std::string& label, const PinholeCamera& camera,
-                        const ImageU8& image) {
+                        const ImageViewU8& image) {
     const std::string camera_problem = camera.validate();
     if (!camera_problem.empty()) {
       why << label << ": " << camera_problem << "\n";
@@ -35,12 +35,18 @@ std::string DepthProblem::validate() const {
     } else if (!image.sameSize(camera.width, camera.height)) {
       why << label << ": image is " << image.width << "x" << image.height
           << " but its camera is " << camera.width << "x" << camera.height << "\n";
+    } else if (image.data == nullptr) {
+      why << label << ": the image view has no pixels\n";
     }
   };
   check_view("reference view", reference_camera, reference_image);
   if (source_cameras.size() != source_images.size()) {
     why << source_cameras.size() << " source cameras but " << source_images.size()
         << " source images\n";
+  }
+  if (!source_keys.empty() && source_keys.size() != source_cameras.size()) {
+    why << source_keys.size() << " source keys for " << source_cameras.size()
+        << " source views (give none or one per source)\n";
   }
   if (source_cameras.empty()) why << "no source views: at least 1 is needed\n";
   if (source_cameras.size() > static_cast<size_t>(kMaxSourceViews)) {
@@ -61,7 +67,28 @@ std::string DepthProblem::validate() const {
   return why.str();
 }
 
+void OwnedDepthProblem::setReference(const PinholeCamera& camera, ImageU8 image) {
+  reference_image_ = std::move(image);
+  problem.reference_camera = camera;
+  problem.reference_image = reference_image_;
+}
+
+void OwnedDepthProblem::addSource(const PinholeCamera& camera, ImageU8 image) {
+  // Growing source_images_ moves the Image objects, not their pixel buffers:
+  // the views taken so far stay valid.
+  source_images_.push_back(std::move(image));
+  problem.source_cameras.push_back(camera);
+  problem.source_images.push_back(source_images_.back());
+}
+
+std::string EstimatorResources::validate() const {
+  // Any budget is valid: 0 keeps nothing between estimates.
+  return "";
+}
+
 namespace mvs {
+
+void CudaStateDeleter::operator()(CudaState* state) const { destroyCudaState(state); }
 
 PatchMatchParams makePatchMatchParams(const PatchMatchOptions& o, const DepthProblem& problem) {
   PatchMatchParams p{};
@@ -94,15 +121,17 @@ PatchMatchParams makePatchMatchParams(const PatchMatchOptions& o, const DepthPro
     g.b = {static_cast<float>(b.x()), static_cast<float>(b.y()), static_cast<float>(b.z())};
     g.width = static_cast<float>(src.width);
     g.height = static_cast<float>(src.height);
+    g.layer = j;  // the CPU sampler's index; the CUDA backend puts its pool slot here
   }
   return p;
 }
 
 }  // namespace mvs
 
-DepthEstimator::DepthEstimator(const PatchMatchOptions& options, Backend backend)
-    : options_(options), backend_(backend) {
-  const std::string problems = options.validate();
+DepthEstimator::DepthEstimator(const PatchMatchOptions& options, Backend backend,
+                               const EstimatorResources& resources)
+    : options_(options), backend_(backend), resources_(resources) {
+  const std::string problems = options.validate() + resources.validate();
   if (!problems.empty()) throw InputError("invalid estimator options:\n" + problems);
   std::string description;
   const bool cuda = mvs::cudaDeviceUsable(&description);
@@ -110,14 +139,35 @@ DepthEstimator::DepthEstimator(const PatchMatchOptions& options, Backend backend
   if (backend_ == Backend::kCuda && !cuda) {
     throw BackendError("CUDA backend requested but unavailable: " + description);
   }
+  if (backend_ == Backend::kCuda) cuda_.reset(mvs::createCudaState(resources_));
 }
+
+DepthEstimator::~DepthEstimator() = default;
 
 DepthMap DepthEstimator::estimate(const DepthProblem& problem) const {
   const std::string problems = problem.validate();
   if (!problems.empty()) throw InputError("invalid depth problem:\n" + problems);
   const mvs::PatchMatchParams params = mvs::makePatchMatchParams(options_, problem);
-  if (backend_ == Backend::kCuda) return mvs::estimateOnCuda(options_, params, problem);
+  if (backend_ == Backend::kCuda) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    return mvs::estimateOnCuda(*cuda_, options_, params, problem);
+  }
   return mvs::estimateOnCpu(options_, params, problem);
+}
+
+void DepthEstimator::forget(int64_t key) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (cuda_) mvs::forgetOnCuda(*cuda_, key);
+}
+
+void DepthEstimator::forgetAll() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (cuda_) mvs::forgetAllOnCuda(*cuda_);
+}
+
+DeviceCacheStats DepthEstimator::deviceCacheStats() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return cuda_ ? mvs::cudaCacheStats(*cuda_) : DeviceCacheStats();
 }
 
 bool cudaBackendAvailable(std::string* description) { return mvs::cudaDeviceUsable(description); }

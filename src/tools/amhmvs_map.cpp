@@ -51,11 +51,15 @@ Keyframe makeKeyframe(const PosedFrame& frame, const MapToolOptions& options) {
   return keyframe;
 }
 
-void logLine(MappingPipeline::LogLevel level, const std::string& line) {
-  const char* prefix = level == MappingPipeline::LogLevel::kError  ? "error: "
-                       : level == MappingPipeline::LogLevel::kWarn ? "warning: "
-                                                                   : "";
-  std::cerr << "amhmvs_map: " << prefix << line << "\n";
+// The pipeline's log on stderr; --quiet keeps only warnings and errors.
+MappingPipeline::Log stderrLog(bool quiet) {
+  return [quiet](MappingPipeline::LogLevel level, const std::string& line) {
+    if (quiet && level == MappingPipeline::LogLevel::kInfo) return;
+    const char* prefix = level == MappingPipeline::LogLevel::kError  ? "error: "
+                         : level == MappingPipeline::LogLevel::kWarn ? "warning: "
+                                                                     : "";
+    std::cerr << "amhmvs_map: " << prefix << line << "\n";
+  };
 }
 
 // Offline: each keyframe waits for the pipeline (push, then step until idle).
@@ -76,7 +80,7 @@ void runOffline(const PosedSequence& sequence, const std::vector<size_t>& picked
 // oldest when the estimator falls behind.
 void runRealtime(const PosedSequence& sequence, const std::vector<size_t>& picked, const MapToolOptions& options,
                  MappingPipeline* pipeline, MapOutputs* outputs, MapRunTotals* totals) {
-  std::atomic<bool> fed{false};
+  std::atomic<bool> fed{false}, stop{false};
   std::exception_ptr feeder_error;
   double reading_s = 0;
   size_t pushed = 0;
@@ -85,6 +89,7 @@ void runRealtime(const PosedSequence& sequence, const std::vector<size_t>& picke
       const Clock::time_point start = Clock::now();
       const double first_stamp = sequence.frames[picked.front()].stamp;
       for (size_t index : picked) {
+        if (stop) break;
         const double due_s = (sequence.frames[index].stamp - first_stamp) / options.realtime_rate;
         std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
                                                   std::chrono::duration<double>(due_s)));
@@ -100,14 +105,20 @@ void runRealtime(const PosedSequence& sequence, const std::vector<size_t>& picke
     fed = true;
     pipeline->wake();
   });
-  while (true) {
-    const bool all_fed = fed;  // read before the step: a push after it is seen next round
-    const std::vector<PipelineOutput> results = pipeline->step();
-    for (const PipelineOutput& output : results) outputs->add(output);
-    if (results.empty()) {
-      if (all_fed && pipeline->stats().idle) break;
-      pipeline->waitForWork(0.1);
+  try {
+    while (true) {
+      const bool all_fed = fed;  // read before the step: a push after it is seen next round
+      const std::vector<PipelineOutput> results = pipeline->step();
+      for (const PipelineOutput& output : results) outputs->add(output);
+      if (results.empty()) {
+        if (all_fed && pipeline->stats().idle) break;
+        pipeline->waitForWork(0.1);
+      }
     }
+  } catch (...) {
+    stop = true;  // the feeder ends at its next frame; then the error goes on
+    feeder.join();
+    throw;
   }
   feeder.join();
   totals->reading_s = reading_s;
@@ -135,7 +146,7 @@ int run(const std::vector<std::string>& args) {
   totals.frames_looked_at = framesLookedAt(sequence.frames.size(), options.frames);
   totals.keyframes_picked = picked.size();
 
-  MappingPipeline pipeline(options.pipeline, logLine);
+  MappingPipeline pipeline(options.pipeline, stderrLog(options.quiet));
   if (!options.quiet) {
     std::fprintf(stderr,
                  "amhmvs_map: %s sequence, %zu frames, %zu looked at, %zu keyframes; backend %s; %s\n",
@@ -152,7 +163,7 @@ int run(const std::vector<std::string>& args) {
   }
   totals.wall_s = secondsSince(start);
   const std::string summary = outputs.finish(pipeline, totals);
-  if (!options.quiet) std::cerr << "amhmvs_map: " << summary << "\n";
+  std::cerr << "amhmvs_map: " << summary << "\n";  // also with --quiet: one line
   std::cout << "amhmvs_map: wrote " << output_dir << "\n";
   return 0;
 }

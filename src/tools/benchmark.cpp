@@ -7,15 +7,28 @@
 // count (both columns equal).
 //
 // usage: amhmvs_benchmark [DATA_DIR] [--out FILE] [--runs N] [--cpu-threads N] [--quick]
-//                         [--only SCENE]   (fountain_x0.25 ... fountain_x1, synthetic,
-//                                           scaling, cpu; for profiling)
+//                         [--only SCENE[,SCENE...]]  (fountain_x0.25 ... fountain_x1,
+//                                           synthetic, scaling, cpu, fusion, pipeline, replay)
+//                         [--replay N]     keyframes of the memory replay (10000)
+//
+// Online pipeline tables (MappingPipeline, GPU when usable):
+//   fusion:   fuseDepthMaps (CPU, OpenMP, all cores) of a 640x480 keyframe
+//             against 4 and 8 views (true depth of the room scene);
+//   pipeline: a 640x480 room sequence, push + step per keyframe, with 4 and 8
+//             sources: keyframes per second end to end and the median stages;
+//   replay:   N keyframes of 160x120 through one pipeline; host RSS and
+//             device memory every N/10 keyframes (must stay flat).
 // The scaling rows time the synthetic scene at 4 sizes x 3 source counts.
 // DATA_DIR holds mvsnet/fountain_x0.25, fountain_x0.5, fountain_x1 dense
 // folders with decodable images (see scripts/prepare_gpu_data.py); rows whose
 // folder is missing are skipped.
 #include <sys/stat.h>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -27,6 +40,13 @@
 #include <omp.h>
 #endif
 
+#ifdef AMHMVS_WITH_CUDA
+#include <cuda_runtime.h>
+#endif
+
+#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/mapping/fusion.h"
+#include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 #include "depth_job.h"
 #include "synthetic_problem.h"
@@ -74,69 +94,245 @@ Row measure(const std::string& scene, const DepthProblem& problem, Backend backe
           totals[totals.size() / 2], gpu_mib};
 }
 
-}  // namespace
-}  // namespace amhmvs
+double median(std::vector<double> values) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  return values[values.size() / 2];
+}
 
-int main(int argc, char** argv) {
-  using namespace amhmvs;
-  std::string data, out_path = "benchmark.md";
-  int runs = 5, cpu_threads = 2;
-  bool quick = false;
-  std::string only;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--only" && i + 1 < argc) {
-      only = argv[++i];
-      continue;
-    }
-    if (a == "--out" && i + 1 < argc) out_path = argv[++i];
-    else if (a == "--runs" && i + 1 < argc) runs = std::max(1, std::atoi(argv[++i]));
-    else if (a == "--cpu-threads" && i + 1 < argc) cpu_threads = std::max(1, std::atoi(argv[++i]));
-    else if (a == "--quick") quick = true;
-    else data = a;
-  }
-  std::string device;
-  const bool gpu = cudaBackendAvailable(&device);
-  std::vector<Row> rows;
-  try {
-    if (gpu) {
-      for (const char* name : {"fountain_x0.25", "fountain_x0.5", "fountain_x1"}) {
-        const std::string folder = data + "/mvsnet/" + name;
-        if (data.empty() || !exists(folder) || (!only.empty() && only != name)) continue;
-        const Scene scene = readInputFolder(folder, 10);
-        const DepthProblem problem = makeDepthProblem(scene, 5, ProblemOptions());
-        for (int iterations : {6, 3}) rows.push_back(measure(name, problem, Backend::kCuda, iterations, runs, 0));
-        std::fprintf(stderr, "%s done\n", name);
-      }
-      if (only.empty() || only == "synthetic") {
-        const SyntheticProblem vga = makeSyntheticProblem(640, 480, 4);
-        for (int iterations : {6, 3}) {
-          rows.push_back(measure("synthetic", vga.problem, Backend::kCuda, iterations, runs, 0));
-        }
-      }
-    }
-    if (gpu && (only.empty() || only == "scaling")) {
-      // Time should grow with pixels x sources (the cost matrix dominates).
-      const int sizes[][2] = {{320, 240}, {640, 480}, {1280, 960}, {2560, 1920}};
-      for (const auto& size : sizes) {
-        for (int sources : {2, 4, 8}) {
-          const SyntheticProblem p = makeSyntheticProblem(size[0], size[1], sources);
-          rows.push_back(measure("scaling", p.problem, Backend::kCuda, 6, runs, 0));
-        }
-      }
-      std::fprintf(stderr, "scaling done\n");
-    }
-    if (only.empty() || only == "cpu") {
-      const SyntheticProblem qvga = makeSyntheticProblem(320, 240, 4);
-      rows.push_back(measure("synthetic", qvga.problem, Backend::kCpu, 6, quick ? 1 : runs, cpu_threads));
-    }
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "amhmvs_benchmark: %s\n", e.what());
-    return 1;
-  }
+double millisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
 
+// Resident set of this process (MiB).
+double hostRssMib() {
+  long pages_total = 0, pages_resident = 0;
+  std::FILE* f = std::fopen("/proc/self/statm", "r");
+  if (!f) return 0;
+  if (std::fscanf(f, "%ld %ld", &pages_total, &pages_resident) != 2) pages_resident = 0;
+  std::fclose(f);
+  return pages_resident * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1 << 20);
+}
+
+// Device memory in use on the GPU (all processes; MiB); 0 without CUDA.
+double deviceUsedMib() {
+#ifdef AMHMVS_WITH_CUDA
+  size_t free_bytes = 0, total = 0;
+  if (cudaMemGetInfo(&free_bytes, &total) != cudaSuccess) {
+    cudaGetLastError();
+    return 0;
+  }
+  return (total - free_bytes) / 1048576.0;
+#else
+  return 0;
+#endif
+}
+
+std::string cacheSummary(const DeviceCacheStats& stats) {
+  char text[160];
+  std::snprintf(text, sizeof(text), "%lu / %lu / %lu", static_cast<unsigned long>(stats.uploads),
+                static_cast<unsigned long>(stats.hits), static_cast<unsigned long>(stats.evictions));
+  return text;
+}
+
+// Rendered keyframes of the room scene along its smooth trajectory.
+std::vector<Keyframe> roomKeyframes(int count, int width, int height, uint32_t seed) {
+  const SyntheticWorld world = makeIndoorRoomWorld(seed);
+  const std::vector<PinholeCamera> cameras = makeSmoothTrajectory(count, width, height, seed);
+  std::vector<Keyframe> keyframes;
+  for (int i = 0; i < count; ++i) {
+    RenderedView view = renderView(world, cameras[i], 1);
+    Keyframe keyframe;
+    keyframe.id = i;
+    keyframe.stamp = 0.1 * i;
+    keyframe.image = toGray(view.image);
+    keyframe.camera = view.camera;
+    float lo = 1e9f, hi = 0;
+    for (float d : view.depth.data) {
+      if (std::isfinite(d)) {
+        lo = std::min(lo, d);
+        hi = std::max(hi, d);
+      }
+    }
+    keyframe.depth_min = 0.9 * lo;  // as a SLAM front end's sparse depth range would give
+    keyframe.depth_max = 1.1 * hi;
+    keyframes.push_back(std::move(keyframe));
+  }
+  return keyframes;
+}
+
+// fuseDepthMaps of one 640x480 keyframe against `views` others (the true
+// depth and normals of the room scene), median of `runs` after a warm-up.
+std::string fusionTable(int runs) {
+  std::ostringstream out;
+  int threads = 1;
+#ifdef _OPENMP
+  threads = omp_get_max_threads();
+#endif
+  out << "\n## Fusion (CPU, " << threads << " OpenMP threads), 640x480 keyframe, room scene\n\n"
+      << "| consistency views | median ms | min ms | points |\n|---|---|---|---|\n";
+  const SyntheticWorld world = makeIndoorRoomWorld(1);
+  const std::vector<PinholeCamera> cameras = makeSmoothTrajectory(9, 640, 480, 1);
+  std::vector<RenderedView> rendered;  // owns the images the fusion views borrow
+  for (int i = 0; i < 9; ++i) rendered.push_back(renderView(world, cameras[i], 1));
+  std::vector<FusionView> all;
+  for (int i = 0; i < 9; ++i) {
+    FusionView fusion;
+    fusion.id = i;
+    fusion.camera = rendered[i].camera;
+    fusion.depth = rendered[i].depth;
+    fusion.normal = rendered[i].normal;
+    fusion.color = rendered[i].image;
+    all.push_back(std::move(fusion));
+  }
+  for (int sources : {4, 8}) {
+    // Only the reference keyframe is fused (the others have no sources), as
+    // the mapper fuses one keyframe against its consistency views.
+    std::vector<FusionView> views(all.begin(), all.begin() + sources + 1);
+    for (int j = 1; j <= sources; ++j) views[0].source_ids.push_back(j);
+    const FusionOptions options = FusionOptions::reprojection();
+    fuseDepthMaps(views, options);  // warm-up
+    std::vector<double> times;
+    size_t points = 0;
+    for (int r = 0; r < runs; ++r) {
+      const auto start = std::chrono::steady_clock::now();
+      const FusionResult result = fuseDepthMaps(views, options);
+      times.push_back(millisecondsSince(start));
+      points = result.pointCount();
+    }
+    char line[200];
+    std::snprintf(line, sizeof(line), "| %d | %.2f | %.2f | %zu |\n", sources, median(times),
+                  *std::min_element(times.begin(), times.end()), points);
+    out << line;
+    std::fprintf(stderr, "%s", line);  // progress: visible if the run is cut short
+  }
+  return out.str();
+}
+
+PipelineOptions pipelineOptions(int sources) {
+  PipelineOptions options;
+  options.mapper.sources.max_sources = sources;
+  options.mapper.map.leaf_size = 0.02;
+  options.queue_size = 4;
+  return options;
+}
+
+// The online pipeline on a 640x480 room sequence: push one keyframe, one
+// step() (sustained camera-rate input, serial: what one GPU does).
+std::string pipelineTable(int keyframe_count) {
+  std::ostringstream out;
+  out << "\n## Online pipeline (MappingPipeline), 640x480 room sequence, " << keyframe_count
+      << " keyframes, 6 iterations\n\n"
+      << "Wall clock per keyframe, push() to the end of its step() (one step per keyframe: refinements, which only "
+         "run when the queue is empty, do not); stages are medians over the keyframes "
+         "with a depth map (estimate: the estimator's wall time; fusion and map: the fusions and map updates "
+         "this keyframe's step did).\n\n"
+      << "| sources | backend | keyframes/s | median total ms | selection | depth range | problem | estimate "
+         "| (estimator's own) | fusion | map | rest | device images: uploads / hits / evictions |\n"
+      << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  const std::vector<Keyframe> keyframes = roomKeyframes(keyframe_count, 640, 480, 1);
+  for (int sources : {4, 8}) {
+    MappingPipeline pipeline(pipelineOptions(sources));
+    std::vector<double> totals, selection, range, problem, estimate, own, fusion, map, rest;
+    const auto start = std::chrono::steady_clock::now();
+    for (const Keyframe& keyframe : keyframes) {
+      const auto pushed = std::chrono::steady_clock::now();
+      pipeline.push(keyframe);
+      double fused = 0, mapped = 0;
+      const StageTimes* times = nullptr;
+      // One step per keyframe, as a camera-rate stream gets: it processes the
+      // new keyframe (and a late one if due); refinements wait for idle time.
+      const std::vector<PipelineOutput> outputs = pipeline.step();
+      for (const PipelineOutput& output : outputs) {
+        fused += output.result.times.fusion_ms;
+        mapped += output.result.times.map_ms;
+        if (output.result.id == keyframe.id && output.result.has_depth) times = &output.result.times;
+      }
+      const double total = millisecondsSince(pushed);
+      totals.push_back(total);
+      if (!times) continue;
+      selection.push_back(times->selection_ms);
+      range.push_back(times->depth_range_ms);
+      problem.push_back(times->problem_ms);
+      estimate.push_back(times->estimate_ms);
+      for (const PipelineOutput& output : outputs) {
+        if (output.result.id == keyframe.id && output.result.has_depth) own.push_back(output.result.depth.milliseconds);
+      }
+      fusion.push_back(fused);
+      map.push_back(mapped);
+      rest.push_back(total - times->selection_ms - times->depth_range_ms - times->problem_ms - times->estimate_ms -
+                     fused - mapped);
+    }
+    const double seconds = millisecondsSince(start) / 1000.0;
+    const PipelineStats stats = pipeline.stats();
+    char line[400];
+    std::snprintf(line, sizeof(line),
+                  "| %d | %s | %.1f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %s |\n", sources,
+                  stats.backend.c_str(), keyframes.size() / seconds, median(totals), median(selection), median(range),
+                  median(problem), median(estimate), median(own), median(fusion), median(map), median(rest),
+                  cacheSummary(pipeline.deviceCacheStats()).c_str());
+    out << line;
+    std::fprintf(stderr, "%s", line);  // progress: visible if the run is cut short
+    std::fprintf(stderr, "pipeline %d sources: %lu depth maps, %lu fused, %lu dropped\n", sources,
+                 static_cast<unsigned long>(stats.depth_maps), static_cast<unsigned long>(stats.keyframes_fused),
+                 static_cast<unsigned long>(stats.droppedTotal()));
+  }
+  return out.str();
+}
+
+// Memory over a long replay: `count` keyframes of 160x120 through one
+// pipeline (a rendered loop of 100 poses, shifted 1 mm per lap so that no
+// two keyframes share a centre).
+std::string replayTable(int count) {
+  std::ostringstream out;
+  out << "\n## Memory over a long replay: " << count << " keyframes of 160x120, 4 sources\n\n"
+      << "| keyframes | host RSS MiB | device used MiB (cudaMemGetInfo) | estimator's device MiB (pool + work) | "
+         "stored keyframes | map voxels | ms per keyframe (last interval) |\n|---|---|---|---|---|---|---|\n";
+  const int lap = 100;
+  const std::vector<Keyframe> loop = roomKeyframes(lap, 160, 120, 2);
+  PipelineOptions options = pipelineOptions(4);
+  options.mapper.store.max_keyframes = 50;
+  MappingPipeline pipeline(options);
+  const int interval = std::max(1, count / 10);
+  auto interval_start = std::chrono::steady_clock::now();
+  double peak_device = 0, peak_rss = 0;
+  for (int i = 0; i < count; ++i) {
+    Keyframe keyframe = loop[i % lap];
+    keyframe.id = i;
+    keyframe.stamp = 0.1 * i;
+    Eigen::Isometry3d pose = keyframe.cameraToWorld();
+    pose.translation().x() += 0.001 * (i / lap);
+    keyframe.setCameraToWorld(pose);
+    pipeline.push(std::move(keyframe));
+    pipeline.step();  // the new keyframe (see pipelineTable)
+    peak_device = std::max(peak_device, deviceUsedMib());
+    if ((i + 1) % interval == 0 || i == 0) {
+      const PipelineStats stats = pipeline.stats();
+      peak_rss = std::max(peak_rss, hostRssMib());
+      char line[300];
+      std::snprintf(line, sizeof(line), "| %d | %.1f | %.1f | %.1f | %lu | %lu | %.2f |\n", i + 1, hostRssMib(),
+                    deviceUsedMib(), stats.gpu_memory_bytes / 1048576.0,
+                    static_cast<unsigned long>(stats.stored_keyframes), static_cast<unsigned long>(stats.map_voxels),
+                    millisecondsSince(interval_start) / (i == 0 ? 1 : interval));
+      out << line;
+    std::fprintf(stderr, "%s", line);  // progress: visible if the run is cut short
+      interval_start = std::chrono::steady_clock::now();
+    }
+  }
+  const PipelineStats stats = pipeline.stats();
+  char line[300];
+  std::snprintf(line, sizeof(line),
+                "\nPeak device memory in use (sampled after every keyframe): %.1f MiB; peak host RSS: %.1f MiB; "
+                "%lu depth maps, %lu dropped; device images: %s\n",
+                peak_device, peak_rss, static_cast<unsigned long>(stats.depth_maps),
+                static_cast<unsigned long>(stats.droppedTotal()), cacheSummary(pipeline.deviceCacheStats()).c_str());
+  out << line;
+  return out.str();
+}
+
+std::string renderTables(const std::string& device, const std::vector<Row>& rows, const std::string& online) {
   std::ostringstream table;
-  table << "device: " << (gpu ? device : "none (CPU only)") << "\n\n"
+  table << "device: " << device << "\n\n"
         << "| scene | size | sources | iterations | backend | median ms | min ms | "
            "with upload ms | ns / (pixel x source x iteration) | GPU MiB |\n"
         << "|---|---|---|---|---|---|---|---|---|---|\n";
@@ -149,7 +345,93 @@ int main(int argc, char** argv) {
                   r.median_ms, r.min_ms, r.median_total_ms, 1e6 * r.median_ms / work, r.gpu_mib);
     table << line;
   }
-  std::printf("%s", table.str().c_str());
-  std::ofstream(out_path) << table.str();
+  table << online;
+  return table.str();
+}
+
+}  // namespace
+}  // namespace amhmvs
+
+int main(int argc, char** argv) {
+  using namespace amhmvs;
+  std::string data, out_path = "benchmark.md";
+  int runs = 5, cpu_threads = 2;
+  bool quick = false;
+  int replay_count = 10000;
+  std::string only;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--only" && i + 1 < argc) {
+      only = argv[++i];
+      continue;
+    }
+    if (a == "--out" && i + 1 < argc) out_path = argv[++i];
+    else if (a == "--runs" && i + 1 < argc) runs = std::max(1, std::atoi(argv[++i]));
+    else if (a == "--cpu-threads" && i + 1 < argc) cpu_threads = std::max(1, std::atoi(argv[++i]));
+    else if (a == "--quick") quick = true;
+    else if (a == "--replay" && i + 1 < argc) replay_count = std::max(1, std::atoi(argv[++i]));
+    else data = a;
+  }
+  // --only A,B,...: the named sections only.
+  const auto wants = [&only](const std::string& section) {
+    return only.empty() || ("," + only + ",").find("," + section + ",") != std::string::npos;
+  };
+  std::string device;
+  const bool gpu = cudaBackendAvailable(&device);
+  std::vector<Row> rows;
+  std::string online;  // the online pipeline's tables
+  try {
+    if (gpu) {
+      for (const char* name : {"fountain_x0.25", "fountain_x0.5", "fountain_x1"}) {
+        const std::string folder = data + "/mvsnet/" + name;
+        if (data.empty() || !exists(folder) || !wants(name)) continue;
+        const Scene scene = readInputFolder(folder, 10);
+        const OwnedDepthProblem owned = makeDepthProblem(scene, 5, ProblemOptions());
+        for (int iterations : {6, 3}) rows.push_back(measure(name, owned.problem, Backend::kCuda, iterations, runs, 0));
+        std::fprintf(stderr, "%s done\n", name);
+      }
+      if (wants("synthetic")) {
+        const SyntheticProblem vga = makeSyntheticProblem(640, 480, 4);
+        for (int iterations : {6, 3}) {
+          rows.push_back(measure("synthetic", vga.problem, Backend::kCuda, iterations, runs, 0));
+        }
+      }
+    }
+    if (gpu && wants("scaling")) {
+      // Time should grow with pixels x sources (the cost matrix dominates).
+      const int sizes[][2] = {{320, 240}, {640, 480}, {1280, 960}, {2560, 1920}};
+      for (const auto& size : sizes) {
+        for (int sources : {2, 4, 8}) {
+          const SyntheticProblem p = makeSyntheticProblem(size[0], size[1], sources);
+          rows.push_back(measure("scaling", p.problem, Backend::kCuda, 6, runs, 0));
+        }
+      }
+      std::fprintf(stderr, "scaling done\n");
+    }
+    if (wants("cpu")) {
+      const SyntheticProblem qvga = makeSyntheticProblem(320, 240, 4);
+      rows.push_back(measure("synthetic", qvga.problem, Backend::kCpu, 6, quick ? 1 : runs, cpu_threads));
+    }
+#ifdef _OPENMP
+    omp_set_num_threads(omp_get_num_procs());  // the online tables use every core
+#endif
+    // Written after each section: a run cut short keeps what it measured.
+    const auto save = [&] { std::ofstream(out_path) << renderTables(gpu ? device : "none (CPU only)", rows, online); };
+    save();
+    if (wants("fusion")) online += fusionTable(std::max(runs, 5));
+    save();
+    if (wants("pipeline")) {
+      online += pipelineTable(quick ? 12 : 60);
+      save();
+      std::fprintf(stderr, "pipeline done\n");
+    }
+    if (only.empty() ? !quick : wants("replay")) online += replayTable(replay_count);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "amhmvs_benchmark: %s\n", e.what());
+    return 1;
+  }
+
+  std::printf("%s", renderTables(gpu ? device : "none (CPU only)", rows, online).c_str());
+  std::ofstream(out_path) << renderTables(gpu ? device : "none (CPU only)", rows, online);
   return 0;
 }

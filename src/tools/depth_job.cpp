@@ -4,15 +4,19 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <future>
 #include <iostream>
+#include <memory>
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
 #include "amhmvs_mapping/eval/ground_truth_depth.h"
+#include "amhmvs_mapping/io/background_writer.h"
 #include "amhmvs_mapping/io/colmap_model.h"
 #include "amhmvs_mapping/io/colormap.h"
 #include "amhmvs_mapping/io/image_io.h"
@@ -22,6 +26,10 @@
 
 namespace amhmvs {
 namespace {
+
+double millisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
 
 bool isDirectory(const std::string& path) {
   struct stat info;
@@ -95,28 +103,52 @@ void maskByCost(DepthMap* map, float max_cost) {
   }
 }
 
-void writeDepthOutputs(const std::string& output_dir, int view_id, const DepthProblem& problem,
-                       const DepthMap& map) {
+namespace {
+
+// The files of one depth map as independent jobs (any order, any thread):
+// depth.pfm, normal.pfm, cost.pfm, depth.png, cam.txt in `dir`.
+std::vector<std::function<void()>> depthOutputJobs(const std::string& dir, const PinholeCamera& camera,
+                                                   double depth_min, double depth_max,
+                                                   std::shared_ptr<const DepthMap> map) {
+  std::vector<std::function<void()>> jobs;
+  jobs.push_back([dir, map] { writePfm(dir + "/depth.pfm", map->depth); });
+  jobs.push_back([dir, map] { writePfm(dir + "/normal.pfm", map->normal); });
+  jobs.push_back([dir, map] { writePfm(dir + "/cost.pfm", map->cost); });
+  jobs.push_back([dir, map, depth_min, depth_max] {
+    // Colour scale from the map's own robust range, else the problem's range
+    // (a map with no valid depth at all is shown black).
+    std::pair<float, float> range(static_cast<float>(depth_min), static_cast<float>(depth_max));
+    try {
+      range = robustRange(map->depth);
+    } catch (const InputError&) {
+    }
+    writePng(dir + "/depth.png", colorizeDepth(map->depth, range.first, range.second));
+  });
+  jobs.push_back([dir, camera, depth_min, depth_max] { writeMvsnetCam(dir + "/cam.txt", camera, depth_min, depth_max); });
+  return jobs;
+}
+
+}  // namespace
+
+void writeDepthOutputs(const std::string& output_dir, int view_id, const PinholeCamera& camera,
+                       double depth_min, double depth_max, const DepthMap& map) {
   const std::string dir = output_dir + "/" + viewFolderName(view_id);
   makeDirectories(dir);
-  writePfm(dir + "/depth.pfm", map.depth);
-  writePfm(dir + "/normal.pfm", map.normal);
-  writePfm(dir + "/cost.pfm", map.cost);
-  // Colour scale from the map's own robust range, else the problem's range
-  // (a map with no valid depth at all is shown black).
-  std::pair<float, float> range(static_cast<float>(problem.depth_min),
-                                static_cast<float>(problem.depth_max));
-  try {
-    range = robustRange(map.depth);
-  } catch (const InputError&) {
-  }
-  writePng(dir + "/depth.png", colorizeDepth(map.depth, range.first, range.second));
-  writeMvsnetCam(dir + "/cam.txt", problem.reference_camera, problem.depth_min, problem.depth_max);
+  // Borrowed for the calls below only (no-op deleter): no copy of the map.
+  const std::shared_ptr<const DepthMap> borrowed(&map, [](const DepthMap*) {});
+  for (const auto& job : depthOutputJobs(dir, camera, depth_min, depth_max, borrowed)) job();
 }
 
 int runDepthJob(const std::string& input_dir, const std::string& output_dir,
                 const DepthJobOptions& options,
                 const std::function<void(int, const DepthProblem&, const DepthMap&)>& on_result) {
+  using Clock = std::chrono::steady_clock;
+  const auto job_start = Clock::now();
+  // The GPU context starts (a few hundred ms) while the scene and the first
+  // problem's images are read.
+  std::future<std::unique_ptr<DepthEstimator>> starting = std::async(std::launch::async, [&options] {
+    return std::make_unique<DepthEstimator>(options.patchmatch, options.backend);
+  });
   const Scene scene = readInputFolder(input_dir, options.problem.max_sources);
   std::vector<int> ids = options.reference_ids;
   if (ids.empty()) {
@@ -127,7 +159,15 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
   }
   if (ids.empty()) throw InputError(input_dir + ": no view has source views");
   checkViewsBeforeEstimating(scene, ids, options.problem);
-  const DepthEstimator estimator(options.patchmatch, options.backend);
+  // Each image is read once and, on the GPU, uploaded once (view ids are the
+  // image keys); an image the cache drops leaves the device too.
+  SceneImageCache images(scene, options.problem);
+  DepthProblem first_problem = images.makeProblem(ids[0]);
+  const double first_problem_ms = millisecondsSince(job_start);
+  const std::unique_ptr<DepthEstimator> estimator_owner = starting.get();
+  DepthEstimator& estimator = *estimator_owner;
+  images.onDrop([&estimator](int64_t view_id) { estimator.forget(view_id); });
+  const double startup_ms = millisecondsSince(job_start);
   if (!options.quiet) {
     std::string gpu;
     cudaBackendAvailable(&gpu);
@@ -140,11 +180,18 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
   }
   int written = 0;
   AccuracyCounts pooled;
+  // Encoding and writing overlap the next estimate, one file per job on 4
+  // threads; about two maps in the queue bound the memory (x1: 126 MB each).
+  BackgroundWriter writer(10, 4);
+  double problem_ms = first_problem_ms, estimate_ms = 0, writer_wait_ms = 0;
   for (size_t i = 0; i < ids.size(); ++i) {
-    const DepthProblem problem = makeDepthProblem(scene, ids[i], options.problem);
+    auto start = Clock::now();
+    const DepthProblem problem = i == 0 ? first_problem : images.makeProblem(ids[i]);
+    if (i > 0) problem_ms += millisecondsSince(start);
+    start = Clock::now();
     DepthMap map = estimator.estimate(problem);
+    estimate_ms += millisecondsSince(start);
     if (options.max_cost > 0) maskByCost(&map, options.max_cost);
-    if (!output_dir.empty()) writeDepthOutputs(output_dir, ids[i], problem, map);
     if (on_result) on_result(ids[i], problem, map);
     ++written;
     std::string accuracy;
@@ -163,6 +210,26 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
                    problem.reference_camera.height, problem.source_cameras.size(), problem.depth_min,
                    problem.depth_max, map.milliseconds, accuracy.c_str());
     }
+    if (!output_dir.empty()) {
+      start = Clock::now();
+      const std::string dir = output_dir + "/" + viewFolderName(ids[i]);
+      makeDirectories(dir);
+      for (auto& job : depthOutputJobs(dir, problem.reference_camera, problem.depth_min, problem.depth_max,
+                                       std::make_shared<const DepthMap>(std::move(map)))) {
+        writer.submit(std::move(job));
+      }
+      writer_wait_ms += millisecondsSince(start);
+    }
+  }
+  auto start = Clock::now();
+  writer.finish();  // a write error (naming its file) is thrown here
+  writer_wait_ms += millisecondsSince(start);
+  if (!options.quiet) {
+    std::fprintf(stderr,
+                 "amhmvs_depth: %.0f ms in all: %.0f until the estimator was ready (first problem's images read "
+                 "after %.0f), %.0f building problems, %.0f estimating, %.0f waiting for the writer\n",
+                 millisecondsSince(job_start), startup_ms, first_problem_ms, problem_ms, estimate_ms,
+                 writer_wait_ms);
   }
   if (!options.ground_truth_dir.empty()) {
     std::fprintf(stderr, "depth accuracy over %d maps (%ld pixels): within 1/2/5 %%: %s %%\n",

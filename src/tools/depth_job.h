@@ -33,14 +33,16 @@ struct DepthJobOptions {
 
 // Writes OUTPUT_DIR/<8-digit id>/ depth.pfm, normal.pfm, cost.pfm, depth.png
 // and cam.txt.
-void writeDepthOutputs(const std::string& output_dir, int view_id, const DepthProblem& problem,
-                       const DepthMap& map);
+// (`camera` and the depth range are the problem's).
+void writeDepthOutputs(const std::string& output_dir, int view_id, const PinholeCamera& camera,
+                       double depth_min, double depth_max, const DepthMap& map);
 
 // Masks pixels whose cost exceeds max_cost (depth := NaN).
 void maskByCost(DepthMap* map, float max_cost);
 
-// Runs the job; `on_result` (if set) sees every depth map. Returns the number
-// of depth maps written.
+// Runs the job; `on_result` (if set) sees every depth map. Output files are
+// written by a background thread (off the estimator's path); its first error
+// is thrown before this returns. Returns the number of depth maps written.
 int runDepthJob(const std::string& input_dir, const std::string& output_dir,
                 const DepthJobOptions& options,
                 const std::function<void(int, const DepthProblem&, const DepthMap&)>& on_result = {});

@@ -86,7 +86,8 @@ std::string mapToolUsage() {
          "  MVSNet dense folder   images/, cams/NNNNNNNN_cam.txt[, pair.txt][, depth_gt/*.pfm]\n"
          "  COLMAP workspace      sparse/[0/] (text or .bin, PINHOLE cameras), images/\n"
          "  7-Scenes / tsdf-fusion frame-NNNNNN.color.jpg|png, .pose.txt (camera-to-world of the\n"
-         "                        depth camera), .depth.png (uint16 mm), camera-intrinsics.txt\n"
+         "                        depth camera), .depth.png (uint16 mm), camera-intrinsics.txt;\n"
+         "                        .color.ppm|pgm and 16-bit .depth.pgm for builds without OpenCV\n"
          "  TUM RGB-D             rgb.txt, depth.txt, groundtruth.txt (associated by stamp)\n"
          "Ground-truth depth, where the recording has it, is only used for the report.\n\n"
          "Writes OUTPUT_DIR/: depth/NNNNNN.pfm (z-depth in metres at the processed resolution,\n"
@@ -98,7 +99,8 @@ std::string mapToolUsage() {
          "Frames and keyframes:\n"
          "  --start N --count N --stride N   frames looked at (default: all, stride 1)\n"
          "  --keyframe_min_translation M     a keyframe after this much motion (default 0.05 m)\n"
-         "  --keyframe_min_rotation_deg D    ... or this much rotation (default 5; both 0: all)\n"
+         "  --keyframe_min_rotation_deg D    ... or this much rotation (default 5; both 0: all);\n"
+         "                                   motion in the poses' unit (a COLMAP model's is arbitrary)\n"
          "  --realtime RATE                  feed frames at RATE x the recording's rate from\n"
          "                                   another thread; a full queue drops the oldest\n"
          "                                   (default: offline, every keyframe waits)\n"
@@ -125,7 +127,7 @@ std::string mapToolUsage() {
          "  --queue_size N       keyframes waiting (default: all offline, 4 with --realtime)\n"
          "Outputs:\n"
          "  --write_depth[=0|1] (default 1)  --write_clouds[=0|1] (default 1)\n"
-         "  --write_previews[=0|1] (default 0)  --quiet (no progress lines)\n\n"
+         "  --write_previews[=0|1] (default 0)  --quiet (only warnings and the summary line)\n\n"
          "Method options (defaults are the paper's):\n"
       << describe(PatchMatchOptions());
   return out.str();

@@ -1,6 +1,7 @@
 #include "map_outputs.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -118,27 +119,123 @@ struct MapOutputs::Row {
   PipelineOutput output;
 };
 
+namespace {
+
+// One value of a log row, as the CSV and the JSON write it.
+struct Cell {
+  std::string name, csv, json;
+};
+
+Cell numberCell(const std::string& name, double value) {
+  return {name, std::isfinite(value) ? number(value) : "", number(value)};
+}
+
+Cell textCell(const std::string& name, const std::string& text) {
+  return {name, text, text.empty() ? "null" : quoted(text)};
+}
+
+Cell idListCell(const std::string& name, const std::vector<int64_t>& ids) {
+  Cell cell{name, "", ""};
+  for (int64_t id : ids) {
+    cell.csv += (cell.csv.empty() ? "" : " ") + std::to_string(id);
+    cell.json += (cell.json.empty() ? "" : ", ") + std::to_string(id);
+  }
+  cell.json = "[" + cell.json + "]";
+  return cell;
+}
+
+// The row of one result: identity, sources, depth range, stage times, fusion.
+std::vector<Cell> resultCells(const KeyframeResult& result, const PosedFrame* frame) {
+  const bool depth = result.has_depth;
+  std::vector<Cell> cells = {
+      {"id", std::to_string(result.id), std::to_string(result.id)},
+      textCell("frame", frame ? frame->name : ""),
+      numberCell("stamp", frame ? frame->stamp : NAN),
+      textCell("kind", kindOf(result)),
+      idListCell("sources", result.selection.source_ids),
+      numberCell("depth_min", depth ? result.depth_range.min : NAN),
+      numberCell("depth_max", depth ? result.depth_range.max : NAN),
+      textCell("depth_range_source", depth ? depthRangeSourceName(result.depth_range.source) : ""),
+      {"width", std::to_string(result.camera.width), std::to_string(result.camera.width)},
+      {"height", std::to_string(result.camera.height), std::to_string(result.camera.height)},
+      textCell("backend", depth ? backendName(result.depth.backend) : "")};
+  for (const auto& field : stageFields()) cells.push_back(numberCell(field.first, result.times.*field.second));
+  cells.push_back(numberCell("estimator_ms", depth ? result.depth.milliseconds : NAN));
+  std::vector<int64_t> fused_ids;
+  size_t fused_points = 0;
+  for (const FusedKeyframe& fused : result.fused) {
+    fused_ids.push_back(fused.id);
+    fused_points += fused.points.size();
+  }
+  cells.push_back(idListCell("fused_ids", fused_ids));
+  cells.push_back({"fused_points", std::to_string(fused_points), std::to_string(fused_points)});
+  return cells;
+}
+
+// Accuracy columns (empty / null without ground truth).
+std::vector<Cell> accuracyCells(const DepthComparison* comparison) {
+  std::vector<Cell> cells;
+  for (size_t i = 0; i < kAccuracyColumns.size(); ++i) {
+    cells.push_back(numberCell(kAccuracyColumns[i], comparison ? 100.0 * comparison->accuracy.fraction(i) : NAN));
+  }
+  cells.push_back(numberCell("completeness_pct", comparison ? 100.0 * comparison->completeness() : NAN));
+  cells.push_back(numberCell("truth_pixels", comparison ? comparison->truth_pixels : NAN));
+  return cells;
+}
+
+// The progress line of one result.
+std::string progressLine(size_t index, const KeyframeResult& result, const PosedFrame* frame,
+                         const DepthComparison* comparison) {
+  std::ostringstream line;
+  line << "[" << index << "] keyframe " << result.id << " " << (frame ? frame->name : "") << ": " << kindOf(result);
+  char text[200];
+  if (result.has_depth) {
+    std::snprintf(text, sizeof(text), ", %zu sources, depth %.2f-%.2f m (%s), %.0f ms (estimate %.0f)",
+                  result.selection.source_ids.size(), result.depth_range.min, result.depth_range.max,
+                  depthRangeSourceName(result.depth_range.source), result.times.total_ms, result.times.estimate_ms);
+    line << text;
+  }
+  if (!result.fused.empty()) {
+    line << ", fused";
+    for (const FusedKeyframe& fused : result.fused) line << " " << fused.id;
+  }
+  if (comparison) {
+    std::snprintf(text, sizeof(text), ", within 5/10 %%: %.1f/%.1f %%, complete %.0f %%",
+                  100 * comparison->accuracy.fraction(2), 100 * comparison->accuracy.fraction(3),
+                  100 * comparison->completeness());
+    line << text;
+  }
+  return line.str();
+}
+
+}  // namespace
+
 MapOutputs::MapOutputs(const std::string& dir, const MapToolOptions& options, const PosedSequence& sequence)
     : dir_(dir), options_(options), sequence_(sequence), writer_(options.writer_queue) {
   for (size_t i = 0; i < sequence.frames.size(); ++i) frame_of_id_[sequence.frames[i].id] = i;
-  std::error_code error;
-  for (const char* sub : {"", "/depth", "/clouds", "/previews"}) {
-    if (std::string(sub) == "/depth" && !options.write_depth) continue;
-    if (std::string(sub) == "/clouds" && !options.write_clouds) continue;
-    if (std::string(sub) == "/previews" && !options.write_previews) continue;
-    fs::create_directories(dir + sub, error);
-    if (error) throw InputError(dir + sub + ": cannot create folder (" + error.message() + ")");
+  const std::vector<std::pair<std::string, bool>> folders = {
+      {dir, true}, {dir + "/depth", options.write_depth}, {dir + "/clouds", options.write_clouds},
+      {dir + "/previews", options.write_previews}};
+  for (const auto& [folder, wanted] : folders) {
+    std::error_code error;
+    if (wanted) fs::create_directories(folder, error);
+    if (error) throw InputError(folder + ": cannot create folder (" + error.message() + ")");
   }
   csv_ = openLog(dir + "/keyframes.csv");
   jsonl_ = openLog(dir + "/keyframes.jsonl");
-  std::fprintf(csv_, "id,frame,stamp,kind,sources,depth_min,depth_max,depth_range_source,width,height,backend");
-  for (const auto& field : stageFields()) std::fprintf(csv_, ",%s", field.first);
-  std::fprintf(csv_, ",estimator_ms,fused_ids,fused_points");
-  for (const char* column : kAccuracyColumns) std::fprintf(csv_, ",%s", column);
-  std::fprintf(csv_, ",completeness_pct,truth_pixels\n");
+  // The header: the cells of an empty result.
+  std::vector<Cell> header = resultCells(KeyframeResult(), nullptr);
+  for (const Cell& cell : accuracyCells(nullptr)) header.push_back(cell);
+  for (size_t i = 0; i < header.size(); ++i) std::fprintf(csv_, "%s%s", i ? "," : "", header[i].name.c_str());
+  std::fprintf(csv_, "\n");
 }
 
 MapOutputs::~MapOutputs() {
+  // The writer's jobs use the logs: let them end first (after an error too).
+  try {
+    writer_.finish();
+  } catch (...) {  // already reported, or the run is failing anyway
+  }
   if (csv_) std::fclose(csv_);
   if (jsonl_) std::fclose(jsonl_);
 }
@@ -147,123 +244,69 @@ void MapOutputs::add(const PipelineOutput& output) {
   auto row = std::make_shared<Row>();
   row->index = ++results_;
   row->output = output;
-  writer_.post([this, row] { write(*row); });
+  const auto start = std::chrono::steady_clock::now();
+  writer_.submit([this, row] { write(*row); });
+  submit_blocked_ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
-void MapOutputs::write(const Row& row) {
-  const KeyframeResult& result = row.output.result;
-  const auto frame_it = frame_of_id_.find(result.id);
-  const PosedFrame* frame = frame_it == frame_of_id_.end() ? nullptr : &sequence_.frames[frame_it->second];
+void MapOutputs::writeFiles(const KeyframeResult& result) {
   const std::string name = id6(result.id);
-  const char* kind = kindOf(result);
-  ++kinds_[kind];
-
-  // Files of this result.
   if (result.has_depth && options_.write_depth) writePfm(dir_ + "/depth/" + name + ".pfm", result.depth.depth);
   if (result.has_depth && options_.write_previews) {
-    std::pair<float, float> range(static_cast<float>(result.depth_range.min), static_cast<float>(result.depth_range.max));
+    std::pair<float, float> range(static_cast<float>(result.depth_range.min),
+                                  static_cast<float>(result.depth_range.max));
     try {
       range = robustRange(result.depth.depth);
     } catch (const InputError&) {  // no valid depth: the estimate's range
     }
     writePng(dir_ + "/previews/" + name + ".png", colorizeDepth(result.depth.depth, range.first, range.second));
   }
-  size_t fused_points = 0;
-  std::string fused_ids, fused_array;  // "1 2" for CSV and people, "1, 2" for JSON
+  if (!options_.write_clouds) return;
   for (const FusedKeyframe& fused : result.fused) {
-    fused_points += fused.points.size();
-    fused_ids += (fused_ids.empty() ? "" : " ") + std::to_string(fused.id);
-    fused_array += (fused_array.empty() ? "" : ", ") + std::to_string(fused.id);
-    if (options_.write_clouds) {
-      writePly(dir_ + "/clouds/" + id6(fused.id) + ".ply", keyframeWorldCloud(fused.points, cameraToWorld(fused.camera)));
-    }
+    writePly(dir_ + "/clouds/" + id6(fused.id) + ".ply",
+             keyframeWorldCloud(fused.points, cameraToWorld(fused.camera)));
   }
+}
 
-  // Accuracy against the recording's ground truth (report only).
-  bool has_truth = false;
-  DepthComparison comparison;
-  if (result.has_depth && frame && frame->ground_truth.present()) {
-    const DepthMapView truth = readGroundTruthDepth(frame->ground_truth, result.camera);
-    comparison = compareDepth(result.depth.depth, groundTruthDepthIn(truth, frame->ground_truth.registered, result.camera));
-    accuracy_[result.id] = comparison;
-    if (!truth_points_.count(result.id)) truth_points_[result.id] = backprojectDepthMaps({truth}, std::max(1, truth.depth.width / kTruthSurfaceColumns));
-    has_truth = true;
+bool MapOutputs::compareWithTruth(const KeyframeResult& result, const PosedFrame* frame,
+                                  DepthComparison* comparison) {
+  if (!result.has_depth || !frame || !frame->ground_truth.present()) return false;
+  const DepthMapView truth = readGroundTruthDepth(frame->ground_truth, result.camera);
+  *comparison = compareDepth(result.depth.depth,
+                             groundTruthDepthIn(truth, frame->ground_truth.registered, result.camera));
+  accuracy_[result.id] = *comparison;  // a refinement replaces the earlier depth map
+  if (!truth_points_.count(result.id)) {
+    truth_points_[result.id] = backprojectDepthMaps({truth}, std::max(1, truth.depth.width / kTruthSurfaceColumns));
   }
+  return true;
+}
+
+void MapOutputs::write(const Row& row) {
+  const KeyframeResult& result = row.output.result;
+  const auto frame_it = frame_of_id_.find(result.id);
+  const PosedFrame* frame = frame_it == frame_of_id_.end() ? nullptr : &sequence_.frames[frame_it->second];
+  ++kinds_[kindOf(result)];
   if (result.has_depth) {
     total_ms_.push_back(result.times.total_ms);
     estimate_ms_.push_back(result.times.estimate_ms);
   }
+  writeFiles(result);
+  DepthComparison comparison;
+  const bool has_truth = compareWithTruth(result, frame, &comparison);
 
-  // keyframes.csv and keyframes.jsonl
-  std::string sources;
-  std::string source_array;
-  for (int64_t id : result.selection.source_ids) {
-    sources += (sources.empty() ? "" : " ") + std::to_string(id);
-    source_array += (source_array.empty() ? "" : ", ") + std::to_string(id);
-  }
-  const std::string range_source = result.has_depth ? depthRangeSourceName(result.depth_range.source) : "";
-  const double depth_min = result.has_depth ? result.depth_range.min : NAN;
-  const double depth_max = result.has_depth ? result.depth_range.max : NAN;
-  const std::string backend = result.has_depth ? backendName(result.depth.backend) : "";
-  const std::string frame_name = frame ? frame->name : "";
-  const double stamp = frame ? frame->stamp : NAN;
-  auto csvNumber = [](double v) { return std::isfinite(v) ? number(v) : std::string(); };
-  std::fprintf(csv_, "%lld,%s,%s,%s,%s,%s,%s,%s,%d,%d,%s", static_cast<long long>(result.id), frame_name.c_str(),
-               csvNumber(stamp).c_str(), kind, sources.c_str(), csvNumber(depth_min).c_str(),
-               csvNumber(depth_max).c_str(), range_source.c_str(), result.camera.width, result.camera.height,
-               backend.c_str());
+  std::vector<Cell> cells = resultCells(result, frame);
   JsonFields json;
-  json.add("id", std::to_string(result.id));
-  json.add("frame", quoted(frame_name));
-  json.add("stamp", number(stamp));
-  json.add("kind", quoted(kind));
-  json.add("sources", "[" + source_array + "]");
-  json.add("depth_min", number(depth_min));
-  json.add("depth_max", number(depth_max));
-  json.add("depth_range_source", result.has_depth ? quoted(range_source) : "null");
-  json.add("width", std::to_string(result.camera.width));
-  json.add("height", std::to_string(result.camera.height));
-  json.add("backend", result.has_depth ? quoted(backend) : "null");
-  JsonFields times;
-  for (const auto& field : stageFields()) {
-    std::fprintf(csv_, ",%s", number(result.times.*field.second).c_str());
-    times.add(field.first, number(result.times.*field.second));
-  }
-  const double estimator_ms = result.has_depth ? result.depth.milliseconds : NAN;
-  std::fprintf(csv_, ",%s,%s,%zu", csvNumber(estimator_ms).c_str(), fused_ids.c_str(), fused_points);
-  json.add("times", times.object());
-  json.add("estimator_ms", number(estimator_ms));
-  json.add("fused_ids", "[" + fused_array + "]");
-  json.add("fused_points", std::to_string(fused_points));
-  for (size_t i = 0; i < kAccuracyColumns.size(); ++i) {
-    std::fprintf(csv_, ",%s", has_truth ? number(100.0 * comparison.accuracy.fraction(i)).c_str() : "");
-  }
-  std::fprintf(csv_, ",%s,%s\n", has_truth ? number(100.0 * comparison.completeness()).c_str() : "",
-               has_truth ? std::to_string(comparison.truth_pixels).c_str() : "");
+  for (const Cell& cell : cells) json.add(cell.name, cell.json);
   json.add("accuracy", has_truth ? accuracyFields(comparison).object() : "null");
+  for (const Cell& cell : accuracyCells(has_truth ? &comparison : nullptr)) cells.push_back(cell);
+  for (size_t i = 0; i < cells.size(); ++i) std::fprintf(csv_, "%s%s", i ? "," : "", cells[i].csv.c_str());
+  std::fprintf(csv_, "\n");
   std::fprintf(jsonl_, "%s\n", json.object().c_str());
   std::fflush(csv_);
   std::fflush(jsonl_);
-
-  if (options_.quiet) return;
-  std::ostringstream line;
-  line << "[" << row.index << "] keyframe " << result.id << " " << frame_name << ": " << kind;
-  if (result.has_depth) {
-    char text[160];
-    std::snprintf(text, sizeof(text), ", %zu sources, depth %.2f-%.2f m (%s), %.0f ms (estimate %.0f)",
-                  result.selection.source_ids.size(), depth_min, depth_max, range_source.c_str(),
-                  result.times.total_ms, result.times.estimate_ms);
-    line << text;
+  if (!options_.quiet) {
+    std::cerr << progressLine(row.index, result, frame, has_truth ? &comparison : nullptr) << "\n";
   }
-  if (!fused_ids.empty()) line << ", fused " << fused_ids;
-  if (has_truth) {
-    char text[96];
-    std::snprintf(text, sizeof(text), ", within 5/10 %%: %.1f/%.1f %%, complete %.0f %%",
-                  100 * comparison.accuracy.fraction(2), 100 * comparison.accuracy.fraction(3),
-                  100 * comparison.completeness());
-    line << text;
-  }
-  std::cerr << line.str() << "\n";
 }
 
 std::string MapOutputs::finish(const MappingPipeline& pipeline, const MapRunTotals& totals) {
@@ -313,9 +356,8 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   for (const PipelineStatField& field : pipelineStatFields()) counters.add(field.name, std::to_string(stats.*field.value));
   summary.add("stats", counters.object());
   JsonFields writer;
-  writer.add("max_queued", std::to_string(writer_.maxQueued()));
-  writer.add("peak_queued", std::to_string(writer_.peakQueued()));
-  writer.add("blocked_ms", number(writer_.blockedMilliseconds()));
+  writer.add("max_queued", std::to_string(options_.writer_queue));
+  writer.add("blocked_ms", number(submit_blocked_ms_));
   summary.add("writer", writer.object());
 
   DepthComparison pooled;
@@ -351,13 +393,20 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
 
   char text[512];
   std::snprintf(text, sizeof(text),
-                "%zu keyframes of %zu frames: %zu new, %zu late, %zu refined depth maps, %llu dropped; "
-                "%.1f s, %.0f ms per keyframe (median step %.0f ms, estimate %.0f ms, %s)",
+                "%zu keyframes of %zu frames: %zu new, %zu late, %zu refined depth maps, %llu dropped; %.1f s",
                 totals.keyframes_picked, totals.frames_looked_at, depth_maps, late,
-                kinds_.count("refined") ? kinds_.at("refined") : 0, static_cast<unsigned long long>(stats.droppedTotal()),
-                totals.wall_s, depth_maps + late ? 1000 * totals.wall_s / (depth_maps + late) : 0.0,
-                median(total_ms_), median(estimate_ms_), stats.backend.c_str());
+                kinds_.count("refined") ? kinds_.at("refined") : 0,
+                static_cast<unsigned long long>(stats.droppedTotal()), totals.wall_s);
   *line = text;
+  if (depth_maps + late > 0) {
+    std::snprintf(text, sizeof(text), ", %.0f ms per keyframe (median step %.0f ms, estimate %.0f ms, %s)",
+                  1000 * totals.wall_s / (depth_maps + late), median(total_ms_), median(estimate_ms_),
+                  stats.backend.c_str());
+  } else {
+    std::snprintf(text, sizeof(text), ", no depth map (%llu keyframes wait for source views)",
+                  static_cast<unsigned long long>(stats.keyframes_waiting_for_sources));
+  }
+  *line += text;
   if (!accuracy_.empty()) {
     std::snprintf(text, sizeof(text), "; depth within 1/2/5/10 %%: %s %%, completeness %.1f %%",
                   pooled.accuracy.percentages().c_str(), 100 * pooled.completeness());

@@ -15,9 +15,9 @@
 #include <Eigen/Core>
 
 #include "amhmvs_mapping/eval/depth_metrics.h"
+#include "amhmvs_mapping/io/background_writer.h"
 #include "amhmvs_mapping/io/posed_sequence.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
-#include "async_writer.h"
 #include "map_options.h"
 
 namespace amhmvs {
@@ -45,7 +45,11 @@ class MapOutputs {
 
  private:
   struct Row;
-  void write(const Row& row);  // writer thread
+  // Writer thread: the files, the comparison, the log rows and progress line of one result.
+  void write(const Row& row);
+  void writeFiles(const KeyframeResult& result);
+  // False when the result has no depth map or its frame no ground truth.
+  bool compareWithTruth(const KeyframeResult& result, const PosedFrame* frame, DepthComparison* comparison);
   // summary.json's text; `line`: the same in one line of prose.
   std::string summaryJson(const MappingPipeline& pipeline, const MapRunTotals& totals, std::string* line);
 
@@ -61,7 +65,8 @@ class MapOutputs {
   std::map<int64_t, DepthComparison> accuracy_;  // latest depth map of each keyframe
   std::map<int64_t, std::vector<Eigen::Vector3f>> truth_points_;  // ground-truth surface, world
   std::vector<double> total_ms_, estimate_ms_;
-  AsyncWriter writer_;  // last: stopped first
+  double submit_blocked_ms_ = 0;  // main thread: time add() waited for room in the writer's queue
+  BackgroundWriter writer_;  // last: stopped first
 };
 
 }  // namespace amhmvs

@@ -32,12 +32,10 @@ SyntheticProblem makeSyntheticProblem(int width, int height, int sources, uint32
   for (size_t i = 0; i < cameras.size(); ++i) {
     RenderedView view = renderView(world, cameras[i]);
     if (i == 0) {
-      out.problem.reference_camera = view.camera;
-      out.problem.reference_image = toGray(view.image);
+      out.setReference(view.camera, toGray(view.image));
       out.true_depth = view.depth;
     } else {
-      out.problem.source_cameras.push_back(view.camera);
-      out.problem.source_images.push_back(toGray(view.image));
+      out.addSource(view.camera, toGray(view.image));
     }
   }
   float lo = std::numeric_limits<float>::max(), hi = 0;

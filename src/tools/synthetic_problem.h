@@ -14,8 +14,9 @@ namespace amhmvs {
 // 2.5..4 m and a floor), for cameras near the origin looking along +z.
 SyntheticWorld makeFoldedPlanesWorld(uint32_t seed);
 
-struct SyntheticProblem {
-  DepthProblem problem;
+// The problem (`problem`, borrowing the rendered images it owns) and the
+// reference view's true depth.
+struct SyntheticProblem : OwnedDepthProblem {
   ImageF true_depth;  // of the reference view; NaN where nothing is hit
 };
 

@@ -9,6 +9,8 @@
 //    fusion) on the fountain views in order, fed like a SLAM
 //    adapter's keyframes (image, pose, the sparse points each view observes),
 //    at the estimator's settings: its depth maps against the same floors;
+//  - the resident image pool of the CUDA backend: same bytes with and without
+//    keys, budget, evictions, forget();
 //  - a small scene for compute-sanitizer (--sanitize).
 //
 // usage: amhmvs_gpu_tests DATA_DIR [--sanitize] [--skip-cpu-fountain]
@@ -22,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
@@ -62,7 +65,7 @@ void textureEmulation() {
       std::fclose(f);
     }
   }
-  const mvs::PaddedImage8 host(mvs::HostImage8{image.data.data(), image.width, image.height});
+  const mvs::PaddedImage8 host(image);
   double max_diff = 0, sum_diff = 0;
   long off = 0;
   for (size_t i = 0; i < xs.size(); ++i) {
@@ -80,11 +83,6 @@ void textureEmulation() {
                 sum_diff / xs.size(), max_diff, 100.0 * off / xs.size());
   expect(sum_diff / xs.size() < 0.01 && off < 0.02 * xs.size(), text);
 }
-
-struct RunResult {
-  DepthMap map;
-  DepthProblem problem;
-};
 
 DepthMap run(const DepthProblem& problem, Backend backend, const PatchMatchOptions& options = {}) {
   return DepthEstimator(options, backend).estimate(problem);
@@ -106,8 +104,8 @@ bool identical(const ImageF& a, const ImageF& b) {
          std::memcmp(a.data.data(), b.data.data(), a.data.size() * sizeof(float)) == 0;
 }
 
-DepthProblem loadProblem(const std::string& folder, int view, int max_sources = 10,
-                         int max_image_size = 0) {
+OwnedDepthProblem loadProblem(const std::string& folder, int view, int max_sources = 10,
+                              int max_image_size = 0) {
   const Scene scene = readInputFolder(folder, max_sources);
   ProblemOptions options;
   options.max_sources = max_sources;
@@ -132,7 +130,8 @@ const double kFountainFloors[3] = {98.3, 99.2, 99.5};
 void middlebury(const std::string& data, Backend backend, bool check_agreement) {
   AccuracyCounts pooled;
   for (const char* scene : kMiddleburyScenes) {
-    const DepthProblem problem = loadProblem(data + "/mvsnet/middlebury2014_" + scene, 0, 1);
+    const OwnedDepthProblem owned = loadProblem(data + "/mvsnet/middlebury2014_" + scene, 0, 1);
+    const DepthProblem& problem = owned.problem;
     const DepthMap map = run(problem, backend);
     const MiddleburyGroundTruth gt = readMiddleburyGroundTruth(data + "/middlebury2014/" + scene);
     const AccuracyCounts counts = denseDepthAccuracy(map.depth, gt.depth, &gt.nonoccluded);
@@ -250,8 +249,121 @@ void onlineMapperFountain(const std::string& data) {
   onlineMapperFountain(data, "sources within 60 deg", wide, true);
 }
 
+bool identicalMaps(const DepthMap& a, const DepthMap& b) {
+  return identical(a.depth, b.depth) && identical(a.normal, b.normal) && identical(a.cost, b.cost);
+}
+
+DepthProblem withoutKeys(DepthProblem problem) {
+  problem.reference_key = kNoImageKey;
+  problem.source_keys.clear();
+  return problem;
+}
+
+// Fountain x0.25 views at `max_image_size`, 4 sources each, images read once
+// (problems carry the view ids as image keys).
+struct FountainImages {
+  FountainImages(const std::string& data, int max_image_size)
+      : scene(readInputFolder(data + "/mvsnet/fountain_x0.25", 4)), images(scene, options(max_image_size)) {}
+  static ProblemOptions options(int max_image_size) {
+    ProblemOptions problem;
+    problem.max_sources = 4;
+    problem.max_image_size = max_image_size;
+    return problem;
+  }
+  Scene scene;
+  SceneImageCache images;
+};
+
+// The CUDA backend's pool of resident images: every fountain view at 384 px
+// as a reference with 4 sources, in order (each image serves ~5 problems).
+// Keyed problems must give the bytes of unkeyed ones with any budget; the
+// budget bounds what stays resident; evictions, uploads and hits are counted;
+// forget() makes the next use upload the (new) pixels.
+void residentPool(const std::string& data) {
+  FountainImages fountain(data, 384);
+  const Scene& scene = fountain.scene;
+  SceneImageCache& images = fountain.images;
+  PatchMatchOptions options;
+  options.num_iterations = 3;  // enough to use every image; halves the time
+  EstimatorResources roomy, tight;
+  roomy.device_image_budget_bytes = size_t(64) << 20;
+  const size_t slot = 384 * 256;
+  tight.device_image_budget_bytes = 3 * slot;  // 3 images kept; a problem needs 5
+  DepthEstimator unkeyed(options, Backend::kCuda), resident(options, Backend::kCuda, roomy),
+      evicting(options, Backend::kCuda, tight);
+  bool same_resident = true, same_evicting = true, within_budget = true;
+  for (const SceneView& view : scene.views) {
+    const DepthProblem problem = images.makeProblem(view.id);
+    const DepthMap reference = unkeyed.estimate(withoutKeys(problem));
+    same_resident &= identicalMaps(reference, resident.estimate(problem));
+    same_evicting &= identicalMaps(reference, evicting.estimate(problem));
+    const DeviceCacheStats stats = evicting.deviceCacheStats();
+    within_budget &= stats.resident_bytes <= stats.budget_bytes && stats.resident_images <= 3;
+  }
+  const DeviceCacheStats roomy_stats = resident.deviceCacheStats(), tight_stats = evicting.deviceCacheStats(),
+                         unkeyed_stats = unkeyed.deviceCacheStats();
+  std::printf("INFO  pool (64 MiB): %lu uploads, %lu hits, %lu evictions, %zu resident, pool %.1f MiB, work %.1f MiB\n",
+              static_cast<unsigned long>(roomy_stats.uploads), static_cast<unsigned long>(roomy_stats.hits),
+              static_cast<unsigned long>(roomy_stats.evictions), roomy_stats.resident_images,
+              roomy_stats.pool_bytes / 1048576.0, roomy_stats.work_bytes / 1048576.0);
+  std::printf("INFO  pool (3 images): %lu uploads, %lu hits, %lu evictions, %zu resident, pool %.1f MiB\n",
+              static_cast<unsigned long>(tight_stats.uploads), static_cast<unsigned long>(tight_stats.hits),
+              static_cast<unsigned long>(tight_stats.evictions), tight_stats.resident_images,
+              tight_stats.pool_bytes / 1048576.0);
+  const uint64_t views = scene.views.size();
+  expect(same_resident && same_evicting,
+         "resident images give the same depth, normal and cost bytes as per-estimate uploads (11 fountain views, "
+         "budget of 64 MiB and of 3 images)");
+  expect(roomy_stats.uploads == views && roomy_stats.evictions == 0 && roomy_stats.hits > 2 * views &&
+             roomy_stats.resident_images == views,
+         "roomy budget: each image uploaded once, nothing evicted, the rest are hits");
+  expect(within_budget && tight_stats.evictions > 0 && tight_stats.uploads > views &&
+             tight_stats.uploads == tight_stats.evictions + tight_stats.resident_images,
+         "budget of 3 images: never more resident, evictions counted (uploads = evictions + resident)");
+  expect(unkeyed_stats.uploads == 0 && unkeyed_stats.resident_images == 0 && unkeyed_stats.unkeyed_uploads == 4 * views,
+         "images without keys are uploaded per estimate and not kept (4 sources; the reference goes straight to "
+         "the kernels' buffer)");
+
+  // forget(): the key's next use uploads the pixels it has then.
+  const DepthProblem problem = images.makeProblem(scene.views[5].id);
+  ImageU8 changed(problem.source_images[0].width, problem.source_images[0].height);
+  for (size_t i = 0; i < changed.data.size(); ++i) changed.data[i] = static_cast<uint8_t>(255 - problem.source_images[0].data[i]);
+  DepthProblem changed_problem = problem;
+  changed_problem.source_images[0] = changed;
+  const uint64_t uploads_before = resident.deviceCacheStats().uploads;
+  resident.forget(problem.source_keys[0]);
+  const DeviceCacheStats after_forget = resident.deviceCacheStats();
+  const DepthMap after = resident.estimate(changed_problem);
+  expect(after_forget.forgotten == 1 && after_forget.resident_images == views - 1 &&
+             resident.deviceCacheStats().uploads == uploads_before + 1 &&
+             identicalMaps(after, unkeyed.estimate(withoutKeys(changed_problem))) &&
+             !identicalMaps(after, unkeyed.estimate(withoutKeys(problem))),
+         "forget(key): dropped, counted, and the next estimate uses the new pixels");
+  resident.forgetAll();
+  expect(resident.deviceCacheStats().resident_images == 0, "forgetAll() leaves nothing resident");
+
+  // A key whose image changed size without forget() is refused.
+  const ImageU8 smaller(problem.source_images[1].width - 1, problem.source_images[1].height);
+  PinholeCamera smaller_camera = problem.source_cameras[1];
+  smaller_camera.width -= 1;
+  DepthProblem resized = problem;
+  resized.source_images[1] = smaller;
+  resized.source_cameras[1] = smaller_camera;
+  resident.estimate(problem);  // every key resident at its old size
+  bool refused = false;
+  try {
+    resident.estimate(resized);
+  } catch (const InputError& e) {
+    refused = std::string(e.what()).find("without forget") != std::string::npos;
+  }
+  expect(refused, "a key whose image changed size without forget() is refused (InputError)");
+  const DepthMap recovered = resident.estimate(problem);
+  expect(identicalMaps(recovered, unkeyed.estimate(withoutKeys(problem))), "the estimator works after that refusal");
+}
+
 void determinism(const std::string& data) {
-  const DepthProblem problem = loadProblem(data + "/mvsnet/fountain_x0.25", 3, 10, 384);
+  const OwnedDepthProblem owned = loadProblem(data + "/mvsnet/fountain_x0.25", 3, 10, 384);
+  const DepthProblem& problem = owned.problem;
   for (Backend backend : {Backend::kCuda, Backend::kCpu}) {
     const DepthMap a = run(problem, backend), b = run(problem, backend);
     expect(identical(a.depth, b.depth) && identical(a.normal, b.normal) && identical(a.cost, b.cost),
@@ -292,17 +404,27 @@ int main(int argc, char** argv) {
   try {
     if (sanitize) {
       // Small scene for compute-sanitizer: two iterations on a 96 px image.
-      const DepthProblem problem = loadProblem(data + "/mvsnet/fountain_x0.25", 0, 4, 96);
+      const OwnedDepthProblem owned = loadProblem(data + "/mvsnet/fountain_x0.25", 0, 4, 96);
+      const DepthProblem& problem = owned.problem;
       PatchMatchOptions options;
       options.num_iterations = 4;
       const DepthMap map = run(problem, Backend::kCuda, options);
       expect(map.depth.width == problem.reference_camera.width, "sanitizer scene ran");
+      // The resident pool's paths too: keyed images, a pool that grows
+      // (copying its layers), evictions and a keyed reference.
+      FountainImages fountain(data, 96);
+      EstimatorResources resources;
+      resources.device_image_budget_bytes = 6 * 96 * 64;
+      DepthEstimator pooled(options, Backend::kCuda, resources);
+      for (int id : {0, 1, 2, 3, 9, 10}) pooled.estimate(fountain.images.makeProblem(id));
+      expect(pooled.deviceCacheStats().evictions > 0, "sanitizer: resident pool with evictions ran");
       return failures ? 1 : 0;
     }
     textureEmulation();
     std::printf("INFO  peak bilinear fetch rate (8-bit layered texture, cache-resident): %.3g fetches/s\n",
                 measureBilinearFetchRate());
     determinism(data);
+    residentPool(data);
     middlebury(data, Backend::kCuda, true);
     middlebury(data, Backend::kCpu, false);
     fountain(data, Backend::kCuda);

@@ -33,7 +33,7 @@ __global__ void fetchRateKernel(cudaTextureObject_t texture, float* sink) {
 double measureBilinearFetchRate(int runs) {
   ImageU8 image(64, 64);
   for (size_t i = 0; i < image.data.size(); ++i) image.data[i] = static_cast<uint8_t>(i * 37 + 11);
-  cuda::LayeredTexture8 texture({&image});
+  cuda::LayeredTexture8 texture({ImageViewU8(image)});
   int device = 0, sms = 0;
   AMHMVS_CUDA_CHECK(cudaGetDevice(&device));
   AMHMVS_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
@@ -56,7 +56,7 @@ double measureBilinearFetchRate(int runs) {
 
 std::vector<float> sampleTextureOnGpu(const ImageU8& image, const std::vector<float>& xs,
                                       const std::vector<float>& ys) {
-  cuda::LayeredTexture8 texture({&image});
+  cuda::LayeredTexture8 texture({ImageViewU8(image)});
   const int n = static_cast<int>(xs.size());
   cuda::DeviceBuffer<float> dx(n), dy(n), out(n);
   dx.upload(xs.data());

@@ -98,6 +98,16 @@ TEST_F(DepthCli, CostMaskSetsUnreliablePixelsToNaN) {
   }
 }
 
+// Files are written by a background thread: a file that cannot be written
+// still fails the program with its name.
+TEST_F(DepthCli, UnwritableOutputFileIsReportedWithItsName) {
+  fs::create_directories(output_ + "/00000000/normal.pfm");  // a folder where the file goes
+  const CommandResult r = runDepth(input_ + " " + output_ + " --backend cpu --max_image_size 120 --iterations 1");
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find(output_ + "/00000000/normal.pfm"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("Segmentation"), std::string::npos);
+}
+
 TEST_F(DepthCli, HelpDocumentsEveryMethodOption) {
   const CommandResult r = runDepth("--help");
   EXPECT_EQ(r.exit_code, 0);

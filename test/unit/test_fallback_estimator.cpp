@@ -70,12 +70,13 @@ TEST(FallbackEstimator, InputErrorsAreNotRetried) {
 TEST(FallbackEstimator, RealCpuBackendAsFallback) {
   DepthProblem problem;
   problem.reference_camera = test::centredCamera(16, 16, 20);
-  problem.reference_image = ImageU8(16, 16, 1, 0);
-  for (int i = 0; i < 256; ++i) problem.reference_image.data[i] = static_cast<uint8_t>((i * 37) % 251);
+  ImageU8 image(16, 16, 1, 0);
+  for (int i = 0; i < 256; ++i) image.data[i] = static_cast<uint8_t>((i * 37) % 251);
+  problem.reference_image = image;
   PinholeCamera source = problem.reference_camera;
   source.t.x() = -0.1;
   problem.source_cameras = {source};
-  problem.source_images = {problem.reference_image};
+  problem.source_images = {image};
   problem.depth_min = 1;
   problem.depth_max = 3;
   PatchMatchOptions options;

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -321,6 +322,32 @@ TEST(Colormap, RobustRangeOverFiniteValues) {
   ImageF empty(2, 1, 1, std::numeric_limits<float>::quiet_NaN());
   EXPECT_INPUT_ERROR(robustRange(empty), "robustRange", "no finite");
   EXPECT_THROW(robustRange(image, 0.9, 0.1), InputError);
+}
+
+// The selection gives exactly the quantiles of the sorted values (ties and
+// repeated values included), for any pair of fractions.
+TEST(Colormap, RobustRangeEqualsSortedQuantiles) {
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> level(0, 500);  // many repeated values
+  ImageF image(317, 29, 1);
+  for (float& v : image.data) v = 0.01f * static_cast<float>(level(rng));
+  for (size_t i = 0; i < image.data.size(); i += 17) image.data[i] = std::numeric_limits<float>::quiet_NaN();
+  std::vector<float> sorted;
+  for (float v : image.data) {
+    if (std::isfinite(v)) sorted.push_back(v);
+  }
+  std::sort(sorted.begin(), sorted.end());
+  auto quantile = [&](double p) {
+    const double pos = p * static_cast<double>(sorted.size() - 1);
+    const size_t lo = static_cast<size_t>(std::floor(pos));
+    const size_t hi = std::min(sorted.size() - 1, lo + 1);
+    return static_cast<float>(sorted[lo] + (pos - lo) * (static_cast<double>(sorted[hi]) - sorted[lo]));
+  };
+  for (const auto& fractions : {std::pair<double, double>{0.02, 0.98}, {0.0, 1.0}, {0.3337, 0.3338}, {0.5, 0.5}}) {
+    const auto range = robustRange(image, fractions.first, fractions.second);
+    EXPECT_EQ(range.first, quantile(fractions.first)) << fractions.first;
+    EXPECT_EQ(range.second, quantile(fractions.second)) << fractions.second;
+  }
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/pfm.h"
 #include "amhmvs_mapping/io/point_cloud_io.h"
 #include "test_helpers.h"
@@ -57,6 +58,11 @@ std::string id6(long id) {
   return name;
 }
 
+// The sequences below are PNG and JPEG: builds without OpenCV skip them
+// (amhmvs_map there reads PPM/PGM, see PosedSequence's tests).
+#define AMHMVS_REQUIRE_DECODER()                                                    \
+  if (!canDecodeCompressedImages()) GTEST_SKIP() << "built without OpenCV (no PNG/JPEG decoder)"
+
 // A synthetic room sequence (amhmvs_synthetic) shared by the tests below.
 class MapCliRoom : public ::testing::Test {
  protected:
@@ -78,6 +84,7 @@ class MapCliRoom : public ::testing::Test {
 test::TempDir* MapCliRoom::dir_ = nullptr;
 
 TEST_F(MapCliRoom, MapsTheRoomWithExactGroundTruth) {
+  AMHMVS_REQUIRE_DECODER();
   test::TempDir out;
   const CommandResult r = runTool("amhmvs_map", room() + " " + out.path() +
                                                      " --backend cpu --max_image_size 160 --iterations 3 "
@@ -127,6 +134,7 @@ TEST_F(MapCliRoom, MapsTheRoomWithExactGroundTruth) {
 // queue of one: the estimator cannot keep up, the oldest waiting keyframe is
 // dropped, every keyframe that was not dropped gets exactly one first result.
 TEST_F(MapCliRoom, RealtimeReplayDropsWhatTheQueueCannotHold) {
+  AMHMVS_REQUIRE_DECODER();
   test::TempDir out;
   const CommandResult r = runTool("amhmvs_map", room() + " " + out.path() +
                                                      " --backend cpu --max_image_size 96 --iterations 2 "
@@ -143,6 +151,23 @@ TEST_F(MapCliRoom, RealtimeReplayDropsWhatTheQueueCannotHold) {
   EXPECT_FALSE(fs::exists(out.file("depth")));
   EXPECT_FALSE(fs::exists(out.file("clouds")));
   EXPECT_TRUE(fs::exists(out.file("map.ply")));
+}
+
+// An image that cannot be decoded halfway through (its header still gives the
+// size, so the sequence reads): exit 1 naming it, after the earlier results
+// were written and the writer thread ended cleanly.
+TEST_F(MapCliRoom, AnUnreadableImageMidwayStopsWithItsName) {
+  AMHMVS_REQUIRE_DECODER();
+  test::TempDir copy;
+  const std::string room_copy = copy.file("room");
+  fs::copy(room(), room_copy, fs::copy_options::recursive);
+  const std::string bad = room_copy + "/images/00000003.png";
+  fs::resize_file(bad, 100);  // PNG signature and IHDR kept, image data cut
+  const CommandResult r = runTool("amhmvs_map", room_copy + " " + copy.file("out") +
+                                                     " --backend cpu --max_image_size 64 --iterations 1 --num_sources 1");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("00000003.png"), std::string::npos) << r.output;
+  EXPECT_GE(lineCount(copy.file("out/keyframes.csv")), 3u) << r.output;  // header and the first results
 }
 
 TEST(MapCli, HelpAndBadInput) {
@@ -178,6 +203,7 @@ TEST(MapCli, HelpAndBadInput) {
 // ../shared/data/README.md. Its ground truth is raw Kinect depth reprojected
 // into the colour camera: good to a few per cent, so floors at 5 and 10 %.
 TEST(MapCli, RedkitchenSevenScenesAgainstKinectDepth) {
+  AMHMVS_REQUIRE_DECODER();
   AMHMVS_REQUIRE_DATA(sequence, "redkitchen_7scenes");
   test::TempDir out;
   const CommandResult r = runTool(
@@ -205,6 +231,7 @@ TEST(MapCli, RedkitchenSevenScenesAgainstKinectDepth) {
 // The MVSNet fountain (no dense ground truth): the first 5 views at 192x128,
 // depth ranges from the cam files.
 TEST(MapCli, FountainDenseFolderUsesItsDepthRanges) {
+  AMHMVS_REQUIRE_DECODER();
   AMHMVS_REQUIRE_DATA(sequence, "mvsnet/fountain_x0.25");
   test::TempDir out;
   const CommandResult r = runTool("amhmvs_map", sequence + " " + out.path() +

@@ -1,14 +1,12 @@
 // The parts of amhmvs_map below its command line: keyframe picking by
-// motion, option parsing, and the writer thread.
+// motion and option parsing (its writer thread is the core's
+// BackgroundWriter, tested on its own).
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <stdexcept>
 #include <vector>
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
-#include "async_writer.h"
 #include "keyframe_picker.h"
 #include "map_options.h"
 #include "test_helpers.h"
@@ -87,30 +85,6 @@ TEST(MapTool, ParsesOptionsAndRefusesBadOnes) {
   EXPECT_INPUT_ERROR(parseMapToolArguments({"--iterations", "0"}), "iterations", "1..100");
   EXPECT_INPUT_ERROR(parseMapToolArguments({"--voxel_size"}), "--voxel_size", "needs a value");
   EXPECT_INPUT_ERROR(parseMapToolArguments({"stray"}), "unexpected argument", "stray");
-}
-
-TEST(MapTool, WriterRunsJobsInOrderAndReportsTheFirstError) {
-  std::vector<int> done;
-  {
-    AsyncWriter writer(2);
-    for (int i = 0; i < 50; ++i) writer.post([&done, i] { done.push_back(i); });
-    writer.finish();
-    EXPECT_LE(writer.peakQueued(), 2u);  // bounded: post() waits for room
-  }
-  ASSERT_EQ(done.size(), 50u);
-  for (int i = 0; i < 50; ++i) EXPECT_EQ(done[i], i);
-
-  AsyncWriter failing(4);
-  std::atomic<int> after_error{0};
-  failing.post([] { throw std::runtime_error("disk full"); });
-  failing.post([&after_error] { ++after_error; });
-  try {
-    failing.finish();
-    ADD_FAILURE() << "finish() should rethrow";
-  } catch (const std::runtime_error& e) {
-    EXPECT_STREQ(e.what(), "disk full");
-  }
-  EXPECT_EQ(after_error, 0);  // skipped once a job failed
 }
 
 }  // namespace

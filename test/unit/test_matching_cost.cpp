@@ -219,7 +219,6 @@ Plane toFloat(const DPlane& p) {
 
 DPlane toDouble(const Plane& p) { return {Eigen::Vector3d(p.n.x, p.n.y, p.n.z), p.d}; }
 
-HostImage8 host(const ImageU8& image) { return {image.data.data(), image.width, image.height}; }
 
 class MatchingCost : public ::testing::Test {
  protected:
@@ -244,8 +243,8 @@ class MatchingCost : public ::testing::Test {
     problem_.depth_max = 10;
     params_ = makePatchMatchParams(PatchMatchOptions(), problem_);
     sampler_ = CpuSampler{};
-    sampler_.reference_image = host(ref_image_);
-    padded_source_ = std::make_unique<PaddedImage8>(host(src_image_));
+    sampler_.reference_image = ref_image_;
+    padded_source_ = std::make_unique<PaddedImage8>(src_image_);
     sampler_.sources[0] = padded_source_.get();
   }
 
@@ -254,7 +253,7 @@ class MatchingCost : public ::testing::Test {
   float cost(const Plane& plane, int x, int y) const {
     ReferenceWindow win;
     computeReferenceWindow<Window>(sampler_, params_.cost, x, y, &win);
-    return matchingCost<Window>(sampler_, params_.cost, win, params_.sources[0], 0,
+    return matchingCost<Window>(sampler_, params_.cost, win, params_.sources[0],
                                 planeTerm(params_.K, plane), x, y);
   }
 

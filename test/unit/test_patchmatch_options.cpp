@@ -250,11 +250,15 @@ PinholeCamera camera(double x) {
   return c;
 }
 
-ImageU8 texturedImage() {
-  ImageU8 image(30, 30);
-  for (int y = 0; y < 30; ++y) {
-    for (int x = 0; x < 30; ++x) image.at(x, y) = static_cast<uint8_t>((x * 37 + y * 91) % 251);
-  }
+// Problems borrow their images: these live for the whole test program.
+const ImageU8& texturedImage() {
+  static const ImageU8 image = [] {
+    ImageU8 textured(30, 30);
+    for (int y = 0; y < 30; ++y) {
+      for (int x = 0; x < 30; ++x) textured.at(x, y) = static_cast<uint8_t>((x * 37 + y * 91) % 251);
+    }
+    return textured;
+  }();
   return image;
 }
 
@@ -325,10 +329,11 @@ TEST(DepthProblemValidate, NonPositiveFocalLength) {
 
 TEST(DepthProblemValidate, ImageSizeMismatch) {
   DepthProblem p = goodProblem();
-  p.source_images[0] = ImageU8(31, 30);
+  const ImageU8 wrong_size(31, 30);
+  p.source_images[0] = wrong_size;
   expectRefused(p, "source view 0", "31x30");
   p = goodProblem();
-  p.reference_image = ImageU8();
+  p.reference_image = ImageViewU8();
   expectRefused(p, "reference view", "0x0");
   p = goodProblem();
   p.source_images.pop_back();
@@ -352,6 +357,11 @@ TEST(DepthProblemValidate, SourceCount) {
   p.source_cameras.pop_back();
   p.source_images.pop_back();
   EXPECT_EQ(p.validate(), "");
+  // Image keys: none or one per source.
+  p.source_keys.assign(32, kNoImageKey);
+  EXPECT_EQ(p.validate(), "");
+  p.source_keys.pop_back();
+  expectRefused(p, "31 source keys for 32 source views");
 }
 
 TEST(DepthProblemValidate, DepthRange) {
@@ -367,10 +377,11 @@ TEST(DepthProblemValidate, DepthRange) {
 
 TEST(DepthProblemValidate, ColourImageAndNoBaseline) {
   DepthProblem p = goodProblem();
-  p.reference_image = ImageU8(30, 30, 3);
+  const ImageU8 colour(30, 30, 3);
+  p.reference_image = colour;
   expectRefused(p, "reference view", "1 channel");
   p = goodProblem();
-  p.source_images[1] = ImageU8(30, 30, 3);
+  p.source_images[1] = colour;
   expectRefused(p, "source view 1", "1 channel");
   p = goodProblem();
   p.source_cameras[0] = camera(0);

@@ -82,6 +82,23 @@ TEST(PosedSequence, SevenScenesFramesInNumberOrderWithDepthCameraGroundTruth) {
   }
 }
 
+TEST(PosedSequence, SevenScenesConvertedToPnmForBuildsWithoutOpenCv) {
+  test::TempDir dir;
+  const std::string root = writeSevenScenes(dir);
+  for (int number : {0, 2, 10}) {
+    char prefix[64];
+    std::snprintf(prefix, sizeof(prefix), "%s/frame-%06d", root.c_str(), number);
+    fs::remove(std::string(prefix) + ".color.png");
+    writePnm(std::string(prefix) + ".color.ppm", ImageU8(64, 48, 3, 90));
+    fs::rename(std::string(prefix) + ".depth.png", std::string(prefix) + ".depth.pgm");
+  }
+  const PosedSequence sequence = readPosedSequence(root);
+  ASSERT_EQ(sequence.frames.size(), 3u);
+  EXPECT_EQ(sequence.frames[1].name, "frame-000002.color.ppm");
+  EXPECT_EQ(sequence.frames[1].camera.width, 64);
+  EXPECT_EQ(sequence.frames[1].ground_truth.path, root + "/frame-000002.depth.pgm");
+}
+
 TEST(PosedSequence, SevenScenesColourRegistrationOptions) {
   test::TempDir dir;
   const std::string root = writeSevenScenes(dir);

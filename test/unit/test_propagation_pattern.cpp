@@ -199,9 +199,10 @@ class PropagateCandidates : public ::testing::TestWithParam<PropagationScheme> {
     PinholeCamera src = ref;
     src.t = Eigen::Vector3d(-0.1, 0, 0);  // centre at x = 0.1 m
     problem.reference_camera = ref;
-    problem.reference_image = ImageU8(kSize, kSize, 1, 128);
+    const ImageU8 grey(kSize, kSize, 1, 128);
+    problem.reference_image = grey;
     problem.source_cameras = {src};
-    problem.source_images = {ImageU8(kSize, kSize, 1, 128)};
+    problem.source_images = {grey};
     problem.depth_min = 1;
     problem.depth_max = 10;
     ASSERT_EQ(problem.validate(), "");

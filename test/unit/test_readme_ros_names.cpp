@@ -116,6 +116,12 @@ KnownNames collectKnownNames(const fs::path& root) {
   for (const std::string& type : captures(readText(root / "nodelet_plugins.xml"), plugin)) known.types.insert(type);
   for (const std::string& program : captures(readText(root / "CMakeLists.txt"), executable)) known.words.insert(program);
   for (const std::string& name : captures(readText(root / "launch/mapping.launch"), ns)) known.words.insert("/" + name);
+  // Launch arguments (`iterations:=3`).
+  static const std::regex launch_arg(R"re(<arg name="(\w+)")re");
+  for (const auto& entry : fs::directory_iterator(root / "launch")) {
+    if (entry.path().extension() == ".launch")
+      for (const std::string& name : captures(readText(entry.path()), launch_arg)) known.words.insert(name);
+  }
   return known;
 }
 

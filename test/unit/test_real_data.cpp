@@ -28,8 +28,8 @@ TEST(RealData, MiddleburyTwoViewAccuracyAtLeastPublicImplementation) {
   AccuracyCounts pooled;
   for (const char* scene : {"Adirondack", "Motorcycle", "Piano", "Playtable"}) {
     const Scene input = readInputFolder(mvsnet + "/middlebury2014_" + scene, 1);
-    const DepthProblem problem = makeDepthProblem(input, 0, ProblemOptions());
-    const DepthMap map = DepthEstimator(PatchMatchOptions(), Backend::kCpu).estimate(problem);
+    const OwnedDepthProblem owned = makeDepthProblem(input, 0, ProblemOptions());
+    const DepthMap map = DepthEstimator(PatchMatchOptions(), Backend::kCpu).estimate(owned.problem);
     const MiddleburyGroundTruth gt =
         readMiddleburyGroundTruth(test::dataDir() + "/middlebury2014/" + scene);
     const AccuracyCounts counts = denseDepthAccuracy(map.depth, gt.depth, &gt.nonoccluded);

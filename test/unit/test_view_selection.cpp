@@ -21,10 +21,11 @@ SelectionParams paperParams() {
   DepthProblem problem;
   PinholeCamera cam = test::centredCamera(10, 10, 10);
   problem.reference_camera = cam;
-  problem.reference_image = ImageU8(10, 10);
+  const ImageU8 black(10, 10);
+  problem.reference_image = black;
   cam.t = Eigen::Vector3d(-0.1, 0, 0);
   problem.source_cameras = {cam};
-  problem.source_images = {ImageU8(10, 10)};
+  problem.source_images = {black};
   problem.depth_min = 1;
   problem.depth_max = 10;
   return makePatchMatchParams(PatchMatchOptions(), problem).selection;

@@ -52,6 +52,7 @@ struct PipelineOptions {
   OnlineMapperOptions mapper;
   PatchMatchOptions estimator;           // the paper's defaults
   Backend backend = Backend::kAuto;      // kAuto: CUDA when a GPU is usable, else the CPU (logged)
+  EstimatorResources resources;          // GPU: device-memory budget of resident keyframe images
   size_t queue_size = 4;                 // keyframes waiting for the estimator; >= 1
   int switch_to_cpu_after = 3;           // GPU failures in a row before every keyframe runs on the CPU
   bool late_depth_maps = true;           // step 3 of the scheduling
@@ -170,6 +171,8 @@ class MappingPipeline {
   // Read access to the mapper (map, store) under the pipeline's lock.
   void withMapper(const std::function<void(const OnlineMapper&)>& read) const;
   Backend backend() const;
+  // The GPU estimator's resident keyframe images (zeros on the CPU).
+  DeviceCacheStats deviceCacheStats() const;
   const PipelineOptions& options() const { return options_; }
 
  private:

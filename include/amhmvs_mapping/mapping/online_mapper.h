@@ -82,6 +82,10 @@ struct OnlineMapperOptions {
 };
 
 // Depth estimation as the mapper calls it. Throws like DepthEstimator::estimate.
+// Problems carry keyframe ids as image keys: an estimator that keeps images
+// resident (the CUDA DepthEstimator) must be told forget(id) for every
+// evicted keyframe and forgetAll() on reset (ids may be reused), as
+// MappingPipeline does.
 using EstimateFunction = std::function<DepthMap(const DepthProblem&)>;
 
 // One keyframe fused into the map.

@@ -11,21 +11,11 @@
 #include <cstdint>
 #include <vector>
 
+#include "amhmvs_mapping/core/image.h"
 #include "amhmvs_mapping/mvs/hd.h"
 
 namespace amhmvs {
 namespace mvs {
-
-struct HostImage8 {
-  const uint8_t* pixels;
-  int width, height;
-
-  float at(int x, int y) const {
-    x = x < 0 ? 0 : (x >= width ? width - 1 : x);
-    y = y < 0 ? 0 : (y >= height ? height - 1 : y);
-    return pixels[static_cast<size_t>(y) * width + x];
-  }
-};
 
 // Coordinates are clamped to [-kCoordinateMargin, size + kCoordinateMargin]
 // before sampling; images are padded by kPadding replicated pixels, which
@@ -41,13 +31,15 @@ struct PaddedImage8 {
   int width = 0, height = 0, stride = 0;
   const uint8_t* origin = nullptr;  // pixel (0, 0)
 
-  explicit PaddedImage8(const HostImage8& image)
+  explicit PaddedImage8(ImageViewU8 image)
       : storage(static_cast<size_t>(image.width + 2 * kPadding) * (image.height + 2 * kPadding)),
         width(image.width), height(image.height), stride(image.width + 2 * kPadding) {
     for (int y = -kPadding; y < height + kPadding; ++y) {
+      const int clamped_y = y < 0 ? 0 : (y >= height ? height - 1 : y);
       for (int x = -kPadding; x < width + kPadding; ++x) {
+        const int clamped_x = x < 0 ? 0 : (x >= width ? width - 1 : x);
         storage[static_cast<size_t>(y + kPadding) * stride + x + kPadding] =
-            static_cast<uint8_t>(image.at(x, y));
+            image.at(clamped_x, clamped_y);
       }
     }
     origin = storage.data() + static_cast<size_t>(kPadding) * stride + kPadding;
@@ -102,13 +94,13 @@ struct CpuSourceView {
 };
 
 struct CpuSampler {
-  HostImage8 reference_image;
+  ImageViewU8 reference_image;
   const PaddedImage8* sources[32];
 
   // Intensity at an integer pixel, -1 outside the image.
   float reference(int x, int y) const {
     const bool inside = x >= 0 && y >= 0 && x < reference_image.width && y < reference_image.height;
-    return inside ? static_cast<float>(reference_image.pixels[static_cast<size_t>(y) * reference_image.width + x])
+    return inside ? static_cast<float>(reference_image.data[static_cast<size_t>(y) * reference_image.width + x])
                   : -1.0f;
   }
   CpuSourceView sourceView(int view) const {

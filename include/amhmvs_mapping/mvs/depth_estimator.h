@@ -7,8 +7,17 @@
 // Backends: CUDA (when built with nvcc and a GPU is present) and CPU
 // (OpenMP). Both run the same per-pixel code (patchmatch_pixel.h) and give
 // the same result up to float rounding; each is deterministic for a seed.
+//
+// A problem borrows its images (ImageView). Images that take part in many
+// estimates (keyframes of an online map) may carry a key: the CUDA backend
+// then uploads each keyed image once and keeps it in device memory, within a
+// byte budget (EstimatorResources), until the owner calls forget(key) or the
+// budget needs the room (least recently used first).
 #pragma once
 
+#include <cstdint>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -23,16 +32,47 @@ const char* backendName(Backend backend);
 // Parses "auto", "cuda" or "cpu"; throws InputError otherwise.
 Backend parseBackend(const std::string& name);
 
+// "This image has no key": uploaded for this estimate only.
+constexpr int64_t kNoImageKey = -1;
+
 struct DepthProblem {
   PinholeCamera reference_camera;
-  ImageU8 reference_image;  // 8-bit grey, size of reference_camera
+  ImageViewU8 reference_image;  // 8-bit grey, size of reference_camera
   std::vector<PinholeCamera> source_cameras;
-  std::vector<ImageU8> source_images;  // 8-bit grey, sizes of their cameras
+  std::vector<ImageViewU8> source_images;  // 8-bit grey, sizes of their cameras
   double depth_min = 0, depth_max = 0;  // z-depth range of the reference view, metres
+  // Optional identities of the images for backends that keep images resident
+  // (CUDA): one key means the same pixels until the owner calls
+  // DepthEstimator::forget(key). source_keys is empty or one per source;
+  // kNoImageKey anywhere means "not kept".
+  int64_t reference_key = kNoImageKey;
+  std::vector<int64_t> source_keys;
 
   // Empty when the problem can be solved; otherwise what is wrong (which view,
   // which value).
   std::string validate() const;
+};
+
+// A DepthProblem with the images it borrows, for problems made from files or
+// synthetic scenes. Not copyable; moving keeps the views valid (the pixel
+// buffers move with their owner).
+class OwnedDepthProblem {
+ public:
+  OwnedDepthProblem() = default;
+  OwnedDepthProblem(OwnedDepthProblem&&) = default;
+  OwnedDepthProblem& operator=(OwnedDepthProblem&&) = default;
+  OwnedDepthProblem(const OwnedDepthProblem&) = delete;
+  OwnedDepthProblem& operator=(const OwnedDepthProblem&) = delete;
+
+  // Store the image and borrow it into `problem`.
+  void setReference(const PinholeCamera& camera, ImageU8 image);
+  void addSource(const PinholeCamera& camera, ImageU8 image);
+
+  DepthProblem problem;  // depth range and keys are the caller's to set
+
+ private:
+  ImageU8 reference_image_;
+  std::vector<ImageU8> source_images_;
 };
 
 struct DepthMap {
@@ -44,25 +84,77 @@ struct DepthMap {
   // CUDA: the part of `milliseconds` after the images are in device memory
   // (kernels and download of depth, normal and cost); equal to it on the CPU.
   double compute_milliseconds = 0;
-  size_t gpu_memory_bytes = 0;  // device memory taken by this estimate (CUDA)
+  // CUDA: device memory the estimator holds after this estimate (image pool
+  // and work buffers, both reused by the next estimate).
+  size_t gpu_memory_bytes = 0;
 };
+
+// Machine resources of an estimator (not of the algorithm: results do not
+// depend on them).
+struct EstimatorResources {
+  // Device memory for keyed images kept between estimates (CUDA), at most as
+  // many images as the GPU has texture layers (2048 on an H100). One
+  // estimate's own images are always held, even when they need more.
+  size_t device_image_budget_bytes = size_t(256) << 20;
+
+  std::string validate() const;
+};
+
+// What the CUDA backend's image pool did since construction (zeros on the CPU).
+struct DeviceCacheStats {
+  uint64_t uploads = 0;          // keyed images copied to the device
+  uint64_t hits = 0;             // keyed images found resident
+  uint64_t evictions = 0;        // keyed images dropped for room (LRU)
+  uint64_t forgotten = 0;        // keyed images dropped by forget()/forgetAll()
+  uint64_t unkeyed_uploads = 0;  // images without a key (uploaded per estimate)
+  size_t resident_images = 0;    // keyed images resident now
+  size_t resident_bytes = 0;     // their slots' bytes
+  size_t budget_bytes = 0;
+  size_t slot_bytes = 0;         // one slot: the largest image seen
+  size_t pool_bytes = 0;         // the whole image pool (all slots)
+  size_t work_bytes = 0;         // pooled per-pixel buffers (grow only)
+};
+
+namespace mvs {
+class CudaState;
+struct CudaStateDeleter {
+  void operator()(CudaState* state) const;
+};
+}  // namespace mvs
 
 class DepthEstimator {
  public:
-  // Throws InputError when the options are invalid. kAuto picks CUDA when a
-  // GPU is usable and the CPU otherwise; kCuda throws BackendError without one.
-  explicit DepthEstimator(const PatchMatchOptions& options, Backend backend = Backend::kAuto);
+  // Throws InputError when the options or resources are invalid. kAuto picks
+  // CUDA when a GPU is usable and the CPU otherwise; kCuda throws
+  // BackendError without one.
+  explicit DepthEstimator(const PatchMatchOptions& options, Backend backend = Backend::kAuto,
+                          const EstimatorResources& resources = EstimatorResources());
+  ~DepthEstimator();
+  DepthEstimator(const DepthEstimator&) = delete;
+  DepthEstimator& operator=(const DepthEstimator&) = delete;
 
-  // Throws InputError for an invalid problem, BackendError when the backend
-  // fails (e.g. GPU out of memory).
+  // Throws InputError for an invalid problem (or a key whose image changed
+  // size without forget()), BackendError when the backend fails (e.g. GPU out
+  // of memory). Calls on one estimator are serialised (one CUDA stream).
   DepthMap estimate(const DepthProblem& problem) const;
+
+  // The owner of keyed images: the pixels of `key` changed or are gone.
+  void forget(int64_t key);
+  void forgetAll();
+  DeviceCacheStats deviceCacheStats() const;
 
   Backend backend() const { return backend_; }
   const PatchMatchOptions& options() const { return options_; }
+  const EstimatorResources& resources() const { return resources_; }
 
  private:
   PatchMatchOptions options_;
   Backend backend_;
+  EstimatorResources resources_;
+  // Device state (image pool, work buffers, stream): a cache that estimate()
+  // fills, hence mutable; mutex_ serialises its users.
+  mutable std::mutex mutex_;
+  mutable std::unique_ptr<mvs::CudaState, mvs::CudaStateDeleter> cuda_;
 };
 
 // Whether this build has the CUDA backend and a usable GPU; `description`

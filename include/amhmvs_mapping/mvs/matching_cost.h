@@ -63,6 +63,7 @@ struct SourceGeometry {
   Mat3 A;
   Vec3 b;
   float width, height;  // in pixels
+  int layer;            // which image of the sampler: the view index (CPU) or its pool slot (CUDA)
 };
 
 // One reference window sample: its normalised weight and the weight times
@@ -145,12 +146,13 @@ AMHMVS_HD Vec3 planeTerm(const Intrinsics& k, const Plane& plane) {
           (plane.n.z - plane.n.x * k.cx / k.fx - plane.n.y * k.cy / k.fy) * inv_d};
 }
 
-// Cost of hypothesis `plane` at reference pixel (x, y) against source `view`.
+// Cost of hypothesis `plane` at reference pixel (x, y) against the source view
+// of geometry `g` (its image: sampler.sourceView(g.layer)).
 // kMaxCost when either window is textureless, when the window centre maps
 // outside the source image, or when the point is behind the source camera.
 template <class Window, class Sampler, class Samples>
 AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
-                             const ReferenceWindowT<Samples>& win, const SourceGeometry& g, int view,
+                             const ReferenceWindowT<Samples>& win, const SourceGeometry& g,
                              Vec3 q, int x, int y) {
   if (!win.textured) return kMaxCost;
   const Window shape(p);
@@ -167,7 +169,7 @@ AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
   }
   // Source samples are centred on the value at the window centre: keeps the
   // float moments accurate for weakly textured windows.
-  const auto source = sampler.sourceView(view);
+  const auto source = sampler.sourceView(g.layer);
   const float shift = source.sample(cu, cv);
   float sum_s = 0.0f, sum_ss = 0.0f, sum_rs = 0.0f;
   AMHMVS_UNROLL

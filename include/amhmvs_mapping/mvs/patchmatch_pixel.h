@@ -114,7 +114,7 @@ AMHMVS_HD void initializePixel(const PatchMatchParams& P, const Sampler& sampler
   const Vec3 q = planeTerm(P.K, plane);
   float costs[32];
   for (int j = 0; j < P.num_sources; ++j) {
-    costs[j] = matchingCost<Window>(sampler, P.cost, win, P.sources[j], j, q, x, y);
+    costs[j] = matchingCost<Window>(sampler, P.cost, win, P.sources[j], q, x, y);
   }
   ViewWeights heuristic;
   heuristic.heuristic = true;
@@ -153,7 +153,7 @@ AMHMVS_HD float scoreHypothesis(const PatchMatchParams& P, const SourceGeometry*
   float costs[32];
   for (int k = 0; k < views.count; ++k) {
     const int j = views.view[k];
-    costs[j] = matchingCost<Window>(sampler, P.cost, win, sources[j], j, q, x, y);
+    costs[j] = matchingCost<Window>(sampler, P.cost, win, sources[j], q, x, y);
   }
   return aggregateCost(P.selection, weights, costs, P.num_sources);
 }
@@ -217,7 +217,7 @@ AMHMVS_HD void costMatrix(const PatchMatchParams& P, const SourceGeometry* sourc
     const int i = distinct[k];
     const Vec3 q = planeTerm(P.K, hypotheses[i]);
     for (int j = 0; j < n; ++j) {
-      matrix[i * n + j] = matchingCost<Window>(sampler, P.cost, win, sources[j], j, q, x, y);
+      matrix[i * n + j] = matchingCost<Window>(sampler, P.cost, win, sources[j], q, x, y);
     }
   }
   for (int i = 0; i < rows; ++i) {
