@@ -69,7 +69,8 @@ set -e
 # sanitizer run leaves out what is slow there and adds no code path: the
 # real-data estimation and fusion tests (RealData, FuseCliRealData,
 # DepthCliColmap, MapCli on the 7-Scenes and fountain data: the same
-# estimator, fusion and mapper run there on synthetic and small real inputs) and the two synthetic tests that repeat the estimator
+# estimator, fusion and mapper run there on synthetic and small real inputs)
+# and the two synthetic tests that repeat the estimator
 # (SameSeed..., 5 runs; Ablations..., 6 runs: 93 and 76 s in the clang
 # release build, minutes under ASan); PaperDefaults... runs the estimator
 # once under the sanitizers. The rendering speed floor is left out too: the
