@@ -108,8 +108,8 @@ grep -E "executions|FINDING" "$core_results/fuzzers.log" || true
 # messages with sparse points from a small SLAM adapter, the temple bag
 # (odometry input, the object's box as the map's region of interest: every
 # map point in the box), the ICL bag (plumbing), keyframe mode with the
-# services and a loop closure, a missing transform, silent input topics, and
-# bad input.
+# services and a loop closure, a missing transform, silent input topics, bad
+# and hostile input.
 echo "== ROS tests (message conversions; rostest) =="
 ros_results=$build/test_results/ros
 rm -rf "$ros_results"
@@ -136,6 +136,7 @@ if [ -f "$bag" ]; then
              "keyframe_services keyframe_services.test" \
              "missing_tf missing_tf.test" \
              "silent_inputs silent_inputs.test" \
+             "hostile_input hostile_input.test" \
              "bad_input bad_input.test"; do
     read -r name file args <<< "$run"
     dir=$ros_results/$name
@@ -147,7 +148,7 @@ if [ -f "$bag" ]; then
   done
 else
   echo "rostest: skipped, no bag at $bag"
-  ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped)
+  ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped)
 fi
 
 # The README's first command in a short configuration (4 frames at 160x120 on
