@@ -7,18 +7,12 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/core/stopwatch.h"
 #include "amhmvs_mapping/mapping/map_export.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
 
 namespace amhmvs {
 namespace {
-
-// Each problem line of a group's validate(), prefixed with the group name.
-void appendProblems(const std::string& group, const std::string& problems, std::ostringstream* out) {
-  std::istringstream lines(problems);
-  for (std::string line; std::getline(lines, line);)
-    if (!line.empty()) *out << group << ": " << line << "\n";
-}
 
 bool hasDepthAndNormals(const StoredKeyframe& stored) {
   return stored.state == KeyframeState::kDone && !stored.depth.depth.empty() && stored.depth.normal.channels == 3;
@@ -37,11 +31,7 @@ FusionView fusionView(int local_id, const StoredKeyframe& stored) {
   return view;
 }
 
-// Milliseconds since `start` (steady clock).
 using Clock = std::chrono::steady_clock;
-double millisecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 // Total score of the selected sources (they come first among the candidates).
 double selectionScore(const SourceSelection& selection) {
@@ -52,6 +42,12 @@ double selectionScore(const SourceSelection& selection) {
 }
 
 }  // namespace
+
+void appendProblems(const std::string& group, const std::string& problems, std::ostringstream* out) {
+  std::istringstream lines(problems);
+  for (std::string line; std::getline(lines, line);)
+    if (!line.empty()) *out << group << ": " << line << "\n";
+}
 
 std::string RefinementOptions::validate() const {
   std::ostringstream why;

@@ -44,6 +44,7 @@
 #include <cuda_runtime.h>
 #endif
 
+#include "amhmvs_mapping/core/stopwatch.h"
 #include "amhmvs_mapping/core/synthetic_scene.h"
 #include "amhmvs_mapping/mapping/fusion.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
@@ -98,10 +99,6 @@ double median(std::vector<double> values) {
   if (values.empty()) return 0;
   std::sort(values.begin(), values.end());
   return values[values.size() / 2];
-}
-
-double millisecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
 // Resident set of this process (MiB).

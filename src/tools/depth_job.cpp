@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/core/stopwatch.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
 #include "amhmvs_mapping/eval/ground_truth_depth.h"
 #include "amhmvs_mapping/io/background_writer.h"
@@ -27,9 +28,6 @@
 namespace amhmvs {
 namespace {
 
-double millisecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-}
 
 bool isDirectory(const std::string& path) {
   struct stat info;

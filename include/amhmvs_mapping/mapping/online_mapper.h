@@ -47,6 +47,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -80,6 +81,9 @@ struct OnlineMapperOptions {
   // Empty when valid; otherwise one line per problem, prefixed by the group.
   std::string validate() const;
 };
+
+// Appends each line of a group's validate() to `out`, prefixed "group: ".
+void appendProblems(const std::string& group, const std::string& problems, std::ostringstream* out);
 
 // Depth estimation as the mapper calls it. Throws like DepthEstimator::estimate.
 // Problems carry keyframe ids as image keys: an estimator that keeps images
