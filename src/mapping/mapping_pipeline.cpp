@@ -74,9 +74,7 @@ std::string PipelineOptions::validate() const {
   std::ostringstream out;
   const std::string mapper_problems = mapper.validate();
   if (!mapper_problems.empty()) out << mapper_problems;
-  std::istringstream estimator_problems(estimator.validate());
-  for (std::string line; std::getline(estimator_problems, line);)
-    if (!line.empty()) out << "estimator: " << line << "\n";
+  appendProblems("estimator", estimator.validate(), &out);
   if (queue_size < 1) out << "queue_size must be >= 1 (got " << queue_size << ")\n";
   if (switch_to_cpu_after < 1) out << "switch_to_cpu_after must be >= 1 (got " << switch_to_cpu_after << ")\n";
   if (!(report_period_s >= 0)) out << "report_period_s must be >= 0 (got " << report_period_s << ")\n";
@@ -298,11 +296,12 @@ void MappingPipeline::applyPending() {
   stats_.bad_pose_updates += refused;
 }
 
-bool MappingPipeline::run(const char* what, int64_t id, const std::function<bool(KeyframeResult*)>& call,
+bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(KeyframeResult*)>& call,
                           std::vector<PipelineOutput>* outputs, double queue_wait_ms) {
   PipelineOutput output;
   output.result.id = id;
-  const bool is_new = std::string(what) == "keyframe";
+  const bool is_new = work == Work::kNewKeyframe;
+  const std::string what = work == Work::kNewKeyframe ? "keyframe" : work == Work::kLate ? "late" : "refinement";
   uint64_t PipelineStats::*failure = nullptr;
   std::string reason;
   try {
@@ -321,15 +320,14 @@ bool MappingPipeline::run(const char* what, int64_t id, const std::function<bool
     // A new keyframe is dropped; a late one stays a source only; a refined
     // one keeps its depth map.
     if (!failure)
-      failure = output.result.late || std::string(what) == "late" ? &PipelineStats::late_estimate_failed
-                                                                   : &PipelineStats::refinement_estimate_failed;
+      failure = work == Work::kLate ? &PipelineStats::late_estimate_failed : &PipelineStats::refinement_estimate_failed;
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++(stats_.*failure);
     }
     report(LogLevel::kError, what,
            (is_new ? "dropped " + keyframeName(output.result.id)
-                   : std::string(what) + " depth map of " + keyframeName(output.result.id) + " failed") +
+                   : what + " depth map of " + keyframeName(output.result.id) + " failed") +
                ": " + reason);
     return true;  // work was attempted
   }
@@ -389,7 +387,7 @@ std::vector<PipelineOutput> MappingPipeline::step() {
   if (have_keyframe) {
     const double wait_ms = 1000 * (steadySeconds() - next.pushed_at);
     const int64_t id = next.keyframe.id;
-    worked |= run("keyframe", id,
+    worked |= run(Work::kNewKeyframe, id,
                   [&](KeyframeResult* result) {
                     *result = mapper_->process(std::move(next.keyframe));
                     return true;
@@ -400,14 +398,14 @@ std::vector<PipelineOutput> MappingPipeline::step() {
   // waits and nothing else was late: new keyframes keep their rate.
   bool late_work = false;
   if (options_.late_depth_maps)
-    late_work = run("late", -1, [&](KeyframeResult* result) { return mapper_->estimateLate(result); }, &outputs, 0);
+    late_work = run(Work::kLate, -1, [&](KeyframeResult* result) { return mapper_->estimateLate(result); }, &outputs, 0);
   bool queue_empty;
   {
     std::lock_guard<std::mutex> queue_lock(queue_mutex_);
     queue_empty = queue_.empty();
   }
   if (!late_work && queue_empty)
-    late_work = run("refinement", -1, [&](KeyframeResult* result) { return mapper_->refine(result); }, &outputs, 0);
+    late_work = run(Work::kRefinement, -1, [&](KeyframeResult* result) { return mapper_->refine(result); }, &outputs, 0);
   worked |= late_work;
 
   std::lock_guard<std::mutex> stats(stats_mutex_);

@@ -231,18 +231,19 @@ void MappingInputs::keyframePosesCallback(const amhmvs_mapping::KeyframePosesCon
 
 void MappingInputs::poseCallback(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
                                  const geometry_msgs::PoseStampedConstPtr& pose) {
+  noteSynchronised();
   offerImage(image, info, pose->header.frame_id, pose->pose);
 }
 
 void MappingInputs::odometryCallback(const sensor_msgs::ImageConstPtr& image,
                                      const sensor_msgs::CameraInfoConstPtr& info,
                                      const nav_msgs::OdometryConstPtr& odometry) {
+  noteSynchronised();
   offerImage(image, info, odometry->header.frame_id, odometry->pose.pose);
 }
 
 void MappingInputs::offerImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
                                const std::string& pose_frame, const geometry_msgs::Pose& pose) {
-  noteSynchronised();
   if (!pose_frame.empty() && pose_frame != config_.fixed_frame) {
     ROS_WARN_ONCE("%s frame '%s' is not ~fixed_frame '%s': the poses are used as they are",
                   config_.input_mode.c_str(), pose_frame.c_str(), config_.fixed_frame.c_str());

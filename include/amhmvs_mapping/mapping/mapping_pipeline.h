@@ -182,8 +182,11 @@ class MappingPipeline {
   };
   void init(EstimateFunction primary, EstimateFunction fallback, const std::string& backend_name);
   void applyPending();
-  // Runs one mapper call with error handling; false when it threw or did nothing.
-  bool run(const char* what, int64_t id, const std::function<bool(KeyframeResult*)>& call,
+  // The three kinds of work of a step (what a failure of each counts as).
+  enum class Work { kNewKeyframe, kLate, kRefinement };
+  // Runs one mapper call with error handling: false when it had nothing to
+  // do, true when it worked or threw (counted and logged).
+  bool run(Work work, int64_t id, const std::function<bool(KeyframeResult*)>& call,
            std::vector<PipelineOutput>* outputs, double queue_wait_ms);
   void account(const PipelineOutput& output);
   void report(LogLevel level, const std::string& kind, const std::string& line);
