@@ -53,19 +53,12 @@ MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const Ma
       *it_, "image", q, image_transport::TransportHints("raw", ros::TransportHints(), pnh)));
   info_filter_.reset(new message_filters::Subscriber<sensor_msgs::CameraInfo>(nh, "camera_info", q));
   // Arrivals of each topic, before synchronisation (what is silent?).
-  const size_t image = watch(image_filter_->getTopic(),
-                             [this] { return image_filter_->getSubscriber().getNumPublishers(); });
-  image_filter_->registerCallback(boost::function<void(const sensor_msgs::ImageConstPtr&)>(
-      [this, image](const sensor_msgs::ImageConstPtr&) { noteArrival(image); }));
-  const size_t info = watch(info_filter_->getTopic(), [this] { return info_filter_->getSubscriber().getNumPublishers(); });
-  info_filter_->registerCallback(boost::function<void(const sensor_msgs::CameraInfoConstPtr&)>(
-      [this, info](const sensor_msgs::CameraInfoConstPtr&) { noteArrival(info); }));
+  watchFilter(*image_filter_);
+  watchFilter(*info_filter_);
   const ros::Duration max_interval(config_.sync_max_interval);
   if (config_.input_mode == "pose") {
     pose_filter_.reset(new message_filters::Subscriber<geometry_msgs::PoseStamped>(nh, "pose", q));
-    const size_t pose = watch(pose_filter_->getTopic(), [this] { return pose_filter_->getSubscriber().getNumPublishers(); });
-    pose_filter_->registerCallback(boost::function<void(const geometry_msgs::PoseStampedConstPtr&)>(
-        [this, pose](const geometry_msgs::PoseStampedConstPtr&) { noteArrival(pose); }));
+    watchFilter(*pose_filter_);
     PoseSync policy(q);
     policy.setMaxIntervalDuration(max_interval);
     pose_sync_.reset(new message_filters::Synchronizer<PoseSync>(static_cast<const PoseSync&>(policy), *image_filter_,
@@ -73,10 +66,7 @@ MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const Ma
     pose_sync_->registerCallback(&MappingInputs::poseCallback, this);
   } else if (config_.input_mode == "odometry") {
     odometry_filter_.reset(new message_filters::Subscriber<nav_msgs::Odometry>(nh, "odom", q));
-    const size_t odom = watch(odometry_filter_->getTopic(),
-                              [this] { return odometry_filter_->getSubscriber().getNumPublishers(); });
-    odometry_filter_->registerCallback(boost::function<void(const nav_msgs::OdometryConstPtr&)>(
-        [this, odom](const nav_msgs::OdometryConstPtr&) { noteArrival(odom); }));
+    watchFilter(*odometry_filter_);
     OdometrySync policy(q);
     policy.setMaxIntervalDuration(max_interval);
     odometry_sync_.reset(new message_filters::Synchronizer<OdometrySync>(

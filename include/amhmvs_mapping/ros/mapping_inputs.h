@@ -137,6 +137,13 @@ class MappingInputs {
   // Registers a topic (constructor); returns its index for noteArrival().
   size_t watch(const std::string& name, std::function<uint32_t()> publishers);
   void noteArrival(size_t topic);
+  // watch() for a subscriber filter, its arrivals noted before synchronisation.
+  template <class Filter>
+  void watchFilter(Filter& filter) {
+    const size_t topic = watch(filter.getTopic(), [&filter] { return filter.getSubscriber().getNumPublishers(); });
+    filter.registerCallback(boost::function<void(const typename Filter::MConstPtr&)>(
+        [this, topic](const typename Filter::MConstPtr&) { noteArrival(topic); }));
+  }
   void noteSynchronised();  // a synchronised frame (or a keyframe message) came
   void count(uint64_t InputStats::*counter);
   // Counts a dropped input and reports it (throttled per reason).
