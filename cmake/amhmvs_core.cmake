@@ -56,7 +56,7 @@ set(AMHMVS_CORE_SOURCES
 file(GLOB AMHMVS_MAPPING_SOURCES CONFIGURE_DEPENDS src/mapping/*.cpp src/eval/*.cpp)
 list(APPEND AMHMVS_CORE_SOURCES ${AMHMVS_MAPPING_SOURCES})
 if(AMHMVS_HAVE_CUDA)
-  list(APPEND AMHMVS_CORE_SOURCES cuda/cuda_backend.cu)
+  list(APPEND AMHMVS_CORE_SOURCES cuda/cuda_backend.cu cuda/cuda_fusion.cu)
 else()
   list(APPEND AMHMVS_CORE_SOURCES src/mvs/cuda_unavailable.cpp)
 endif()

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "fusion_driver.h"
 
 namespace amhmvs {
 
@@ -125,237 +126,175 @@ void checkViews(const std::vector<FusionView>& views, const FusionOptions& optio
   }
 }
 
-// A view prepared for the checks: the pose in double precision and per-pixel
-// validity including the cost mask.
-struct PreparedView {
-  const FusionView* view = nullptr;
-  Eigen::Matrix3d R, Rt;  // world-to-camera rotation and its transpose
-  Eigen::Vector3d t, center;
-  std::vector<uint8_t> used;
-
-  bool pixel(int x, int y, float max_cost, double* depth, Eigen::Vector3d* normal_world) const {
-    const float d = view->depth.at(x, y);
-    if (!(std::isfinite(d) && d > 0)) return false;
-    if (!view->cost.empty() && !(view->cost.at(x, y) <= max_cost)) return false;
-    const Eigen::Vector3d n(view->normal.at(x, y, 0), view->normal.at(x, y, 1),
-                            view->normal.at(x, y, 2));
-    const double norm = n.norm();
-    if (!(std::isfinite(norm) && norm > 1e-6)) return false;
-    *depth = d;
-    *normal_world = Rt * (n / norm);
-    return true;
-  }
-  Eigen::Vector3d worldPoint(int x, int y, double depth) const {
-    return Rt * (view->camera.backproject(x, y, depth) - t);
-  }
-  Eigen::Vector3d color(int x, int y) const {
-    const ImageViewU8& c = view->color;
-    if (c.channels == 1) return Eigen::Vector3d::Constant(c.at(x, y));
-    return {static_cast<double>(c.at(x, y, 0)), static_cast<double>(c.at(x, y, 1)),
-            static_cast<double>(c.at(x, y, 2))};
-  }
-  bool hasColor() const { return !view->color.empty(); }
-};
-
-PreparedView prepare(const FusionView& view) {
-  PreparedView p;
-  p.view = &view;
-  p.R = view.camera.R;
-  p.Rt = view.camera.R.transpose();
-  p.t = view.camera.t;
-  p.center = view.camera.center();
-  p.used.assign(view.depth.pixelCount(), 0);
-  return p;
-}
-
-// The nearest pixel of a projection, false when outside the image.
-bool nearestPixel(const PinholeCamera& camera, const Eigen::Vector2d& uv, int* x, int* y) {
-  if (!uv.allFinite() || !camera.contains(uv)) return false;
-  *x = static_cast<int>(std::floor(uv.x() + 0.5));
-  *y = static_cast<int>(std::floor(uv.y() + 0.5));
-  return *x >= 0 && *y >= 0 && *x < camera.width && *y < camera.height;
-}
-
-uint8_t toByte(double value) {
-  return static_cast<uint8_t>(std::clamp(std::lround(value), 0L, 255L));
-}
-
-struct Support {
-  int source;  // index into the prepared views
-  int pixel;   // linear pixel index in that view
-};
-
-class ReferenceFuser {
- public:
-  ReferenceFuser(const std::vector<PreparedView>& views, const std::vector<int>& sources,
-                 const FusionOptions& options)
-      : views_(views),
-        sources_(sources),
-        options_(options),
-        cos_max_angle_(std::isinf(options.max_normal_angle_deg)
-                           ? -2.0
-                           : std::cos(options.max_normal_angle_deg * M_PI / 180.0)) {}
-
-  // Fuses reference pixel (x, y); appends the sources' used pixels to
-  // `support` when a point is emitted.
-  bool fusePixel(const PreparedView& ref, int x, int y, KeyframePoint* out,
-                 std::vector<Support>* support) const {
-    double depth;
-    Eigen::Vector3d normal;
-    if (!ref.pixel(x, y, options_.max_cost, &depth, &normal)) return false;
-    const PinholeCamera& ref_camera = ref.view->camera;
-    const Eigen::Vector3d X = ref.worldPoint(x, y, depth);
-
-    Eigen::Vector3d sum_position = X, sum_normal = normal, sum_color = Eigen::Vector3d::Zero();
-    int colored = 0;
-    if (ref.hasColor()) {
-      sum_color += ref.color(x, y);
-      ++colored;
-    }
-    int visible = 0, consistent = 0;
-    const size_t support_start = support->size();
-    for (int s : sources_) {
-      const PreparedView& src = views_[s];
-      const PinholeCamera& src_camera = src.view->camera;
-      const Eigen::Vector3d Xs = src.R * X + src.t;
-      if (!(Xs.z() > 0)) continue;
-      int sx, sy;
-      if (!nearestPixel(src_camera, src_camera.project(Xs), &sx, &sy)) continue;
-      const int src_pixel = sy * src_camera.width + sx;
-      // A pixel already fused elsewhere neither supports nor counts as checked.
-      if (options_.fuse_each_pixel_once && src.used[src_pixel]) continue;
-      ++visible;
-      double src_depth;
-      Eigen::Vector3d src_normal;
-      if (!src.pixel(sx, sy, options_.max_cost, &src_depth, &src_normal)) continue;
-      if (normal.dot(src_normal) <= cos_max_angle_) continue;
-      if (std::isfinite(options_.max_disparity_difference)) {
-        // Fusibile: disparity = f_ref * baseline / depth, both depths in the source.
-        const double fb = ref_camera.fx * (ref.center - src.center).norm();
-        if (!(std::abs(fb / Xs.z() - fb / src_depth) < options_.max_disparity_difference)) {
-          continue;
-        }
-      }
-      const Eigen::Vector3d Xj = src.worldPoint(sx, sy, src_depth);
-      if (std::isfinite(options_.max_reprojection_error) ||
-          std::isfinite(options_.max_relative_depth_difference)) {
-        const Eigen::Vector3d Xj_ref = ref.R * Xj + ref.t;
-        if (!(Xj_ref.z() > 0)) continue;
-        if (!(std::abs(Xj_ref.z() - depth) / depth < options_.max_relative_depth_difference)) {
-          continue;
-        }
-        const Eigen::Vector2d reprojected = ref_camera.project(Xj_ref);
-        if (!((reprojected - Eigen::Vector2d(x, y)).norm() < options_.max_reprojection_error)) {
-          continue;
-        }
-      }
-      sum_position += Xj;
-      sum_normal += src_normal;
-      if (src.hasColor()) {
-        sum_color += src.color(sx, sy);
-        ++colored;
-      }
-      ++consistent;
-      support->push_back({s, src_pixel});
-    }
-    if (consistent < options_.min_consistent_views) {
-      support->resize(support_start);
-      return false;
-    }
-    const Eigen::Vector3d position = ref.R * (sum_position / (consistent + 1)) + ref.t;
-    Eigen::Vector3d mean_normal = ref.R * sum_normal;
-    // Opposite normals can only cancel with the angle check off.
-    mean_normal = mean_normal.norm() > 1e-9 ? mean_normal.normalized() : ref.R * normal;
-    if (!position.allFinite() || !mean_normal.allFinite()) {
-      support->resize(support_start);
-      return false;
-    }
-    out->position = position.cast<float>();
-    out->normal = mean_normal.cast<float>();
-    const Eigen::Vector3d color = colored ? Eigen::Vector3d(sum_color / colored)
-                                          : Eigen::Vector3d::Constant(128);
-    out->rgb[0] = toByte(color.x());
-    out->rgb[1] = toByte(color.y());
-    out->rgb[2] = toByte(color.z());
-    out->consistent_views = static_cast<uint16_t>(consistent);
-    out->confidence = visible ? static_cast<float>(consistent) / visible : 0.0f;
-    return true;
-  }
-
- private:
-  const std::vector<PreparedView>& views_;
-  const std::vector<int>& sources_;
-  const FusionOptions& options_;
-  double cos_max_angle_;
-};
-
 }  // namespace
 
-FusionResult fuseDepthMaps(const std::vector<FusionView>& input, const FusionOptions& options) {
-  checkViews(input, options);
-  // Ascending id: the processing order that decides which view keeps a point.
-  std::vector<const FusionView*> sorted;
-  for (const FusionView& v : input) sorted.push_back(&v);
-  std::sort(sorted.begin(), sorted.end(),
-            [](const FusionView* a, const FusionView* b) { return a->id < b->id; });
-  std::vector<PreparedView> views;
-  std::map<int, int> index_of_id;
-  for (const FusionView* v : sorted) {
-    index_of_id[v->id] = static_cast<int>(views.size());
-    views.push_back(prepare(*v));
+namespace fusion {
+
+ViewData viewData(const FusionView& view, const float* depth, const float* normal,
+                  const float* cost, const uint8_t* color, const uint8_t* used) {
+  ViewData v;
+  const PinholeCamera& c = view.camera;
+  v.fx = c.fx;
+  v.fy = c.fy;
+  v.cx = c.cx;
+  v.cy = c.cy;
+  v.width = c.width;
+  v.height = c.height;
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) {
+      v.R.m[3 * r + k] = c.R(r, k);
+      v.Rt.m[3 * r + k] = c.R(k, r);
+    }
   }
+  const Eigen::Vector3d center = c.center();
+  v.t = {c.t.x(), c.t.y(), c.t.z()};
+  v.center = {center.x(), center.y(), center.z()};
+  v.depth = depth;
+  v.normal = normal;
+  v.cost = view.cost.empty() ? nullptr : cost;
+  v.color = view.color.empty() ? nullptr : color;
+  v.color_channels = view.color.channels;
+  v.used = used;
+  return v;
+}
+
+Checks checks(const FusionOptions& options) {
+  Checks c;
+  c.max_disparity_difference = options.max_disparity_difference;
+  c.max_reprojection_error = options.max_reprojection_error;
+  c.max_relative_depth_difference = options.max_relative_depth_difference;
+  c.cos_max_normal_angle = std::isinf(options.max_normal_angle_deg)
+                               ? -2.0
+                               : std::cos(options.max_normal_angle_deg * M_PI / 180.0);
+  c.max_cost = options.max_cost;
+  c.min_consistent_views = options.min_consistent_views;
+  c.skip_used = options.fuse_each_pixel_once;
+  return c;
+}
+
+KeyframePoint toKeyframePoint(const FusedPoint& p) {
+  KeyframePoint k;
+  k.position = Eigen::Vector3f(p.position[0], p.position[1], p.position[2]);
+  k.normal = Eigen::Vector3f(p.normal[0], p.normal[1], p.normal[2]);
+  k.rgb[0] = p.rgb[0];
+  k.rgb[1] = p.rgb[1];
+  k.rgb[2] = p.rgb[2];
+  k.confidence = p.confidence;
+  k.consistent_views = p.consistent_views;
+  return k;
+}
+
+FusionResult runFusion(const std::vector<FusionView>& input, const FusionOptions& options,
+                       ReferenceFusion* backend) {
+  checkViews(input, options);
+  std::vector<const FusionView*> views;
+  for (const FusionView& v : input) views.push_back(&v);
+  std::sort(views.begin(), views.end(),
+            [](const FusionView* a, const FusionView* b) { return a->id < b->id; });
+  std::map<int, int> index_of_id;
+  for (size_t i = 0; i < views.size(); ++i) index_of_id[views[i]->id] = static_cast<int>(i);
+  backend->begin(views, options);
 
   FusionResult result;
   for (size_t r = 0; r < views.size(); ++r) {
-    PreparedView& ref = views[r];
-    const FusionView& view = *ref.view;
+    const FusionView& view = *views[r];
+    FusedViewPoints fused;
+    fused.view_id = view.id;
+    fused.camera = view.camera;
     std::vector<int> sources;
     for (int id : view.source_ids) {
       if (options.max_sources > 0 && static_cast<int>(sources.size()) >= options.max_sources) break;
       sources.push_back(index_of_id.at(id));
     }
-    if (sources.size() < static_cast<size_t>(options.min_consistent_views)) {
-      // No pixel can reach min_consistent_views (e.g. a view that only
-      // supports others): it emits nothing and marks nothing.
-      result.views.push_back({view.id, view.camera, {}});
-      continue;
-    }
-    const ReferenceFuser fuser(views, sources, options);
-    const int width = view.camera.width, height = view.camera.height;
-
-    // Rows in parallel, each with its own output; concatenated in row order.
-    std::vector<std::vector<KeyframePoint>> row_points(height);
-    std::vector<std::vector<Support>> row_support(height);
-    std::vector<size_t> row_candidates(height, 0);
-#pragma omp parallel for schedule(dynamic, 4)
-    for (int y = 0; y < height; ++y) {
-      for (int x = 0; x < width; ++x) {
-        const size_t pixel = static_cast<size_t>(y) * width + x;
-        if (options.fuse_each_pixel_once && ref.used[pixel]) continue;
-        double depth;
-        Eigen::Vector3d normal;
-        if (!ref.pixel(x, y, options.max_cost, &depth, &normal)) continue;
-        ++row_candidates[y];
-        KeyframePoint point;
-        if (!fuser.fusePixel(ref, x, y, &point, &row_support[y])) continue;
-        row_points[y].push_back(point);
-        if (options.fuse_each_pixel_once) row_support[y].push_back({static_cast<int>(r),
-                                                                    static_cast<int>(pixel)});
-      }
-    }
-
-    FusedViewPoints fused;
-    fused.view_id = view.id;
-    fused.camera = view.camera;
-    for (int y = 0; y < height; ++y) {
-      result.candidate_pixels += row_candidates[y];
-      fused.points.insert(fused.points.end(), row_points[y].begin(), row_points[y].end());
-      if (!options.fuse_each_pixel_once) continue;
-      for (const Support& s : row_support[y]) views[s.source].used[s.pixel] = 1;
+    // Fewer sources than min_consistent_views: no pixel can be kept (e.g. a
+    // view that only supports others); it emits nothing and marks nothing.
+    if (sources.size() >= static_cast<size_t>(options.min_consistent_views)) {
+      result.candidate_pixels += backend->fuseReference(static_cast<int>(r), sources, &fused.points);
     }
     result.views.push_back(std::move(fused));
   }
   return result;
+}
+
+}  // namespace fusion
+
+namespace {
+
+// The CPU backend: rows in parallel, each with its own output, concatenated
+// in row order; marks applied when a reference is done (deterministic and
+// independent of the number of threads).
+class CpuReferenceFusion : public fusion::ReferenceFusion {
+ public:
+  void begin(const std::vector<const FusionView*>& views, const FusionOptions& options) override {
+    views_ = views;
+    checks_ = fusion::checks(options);
+    used_.assign(views.size(), {});
+    if (options.fuse_each_pixel_once) {
+      for (size_t i = 0; i < views.size(); ++i) used_[i].assign(views[i]->depth.pixelCount(), 0);
+    }
+  }
+
+  size_t fuseReference(int reference, const std::vector<int>& sources,
+                       KeyframePoints* points) override {
+    const fusion::ViewData ref = data(reference);
+    std::vector<fusion::ViewData> source_data;
+    for (int s : sources) source_data.push_back(data(s));
+    const int count = static_cast<int>(sources.size());
+    const int width = ref.width, height = ref.height;
+    const bool marking = checks_.skip_used;
+
+    std::vector<std::vector<KeyframePoint>> row_points(height);
+    std::vector<std::vector<std::pair<int, int>>> row_marks(height);  // (view index, pixel)
+    std::vector<size_t> row_candidates(height, 0);
+#pragma omp parallel for schedule(dynamic, 4)
+    for (int y = 0; y < height; ++y) {
+      std::vector<int> support(count);
+      for (int x = 0; x < width; ++x) {
+        const int pixel = ref.pixelIndex(x, y);
+        if (ref.used && ref.used[pixel]) continue;
+        double depth;
+        fusion::Vec3d normal;
+        if (!ref.pixel(x, y, checks_.max_cost, &depth, &normal)) continue;
+        ++row_candidates[y];
+        fusion::FusedPoint point;
+        if (!fusion::fusePixel(ref, source_data.data(), count, checks_, x, y, &point,
+                               support.data())) {
+          continue;
+        }
+        row_points[y].push_back(fusion::toKeyframePoint(point));
+        if (!marking) continue;
+        row_marks[y].emplace_back(reference, pixel);
+        for (int k = 0; k < count; ++k) {
+          if (support[k] >= 0) row_marks[y].emplace_back(sources[k], support[k]);
+        }
+      }
+    }
+    size_t candidates = 0;
+    for (int y = 0; y < height; ++y) {
+      candidates += row_candidates[y];
+      points->insert(points->end(), row_points[y].begin(), row_points[y].end());
+      for (const auto& [view, pixel] : row_marks[y]) used_[view][pixel] = 1;
+    }
+    return candidates;
+  }
+
+ private:
+  fusion::ViewData data(int index) const {
+    const FusionView& v = *views_[index];
+    return fusion::viewData(v, v.depth.data, v.normal.data, v.cost.data, v.color.data,
+                            used_[index].empty() ? nullptr : used_[index].data());
+  }
+
+  std::vector<const FusionView*> views_;
+  fusion::Checks checks_{};
+  std::vector<std::vector<uint8_t>> used_;
+};
+
+}  // namespace
+
+FusionResult fuseDepthMaps(const std::vector<FusionView>& views, const FusionOptions& options) {
+  CpuReferenceFusion cpu;
+  return fusion::runFusion(views, options, &cpu);
 }
 
 KeyframePoint toWorld(const KeyframePoint& point, const PinholeCamera& camera) {

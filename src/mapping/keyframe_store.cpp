@@ -1,6 +1,7 @@
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <sstream>
 #include <tuple>
@@ -254,6 +255,8 @@ std::vector<int64_t> KeyframeStore::attachDepth(int64_t id, DepthMap depth) {
   if (new_bytes > old_bytes) evicted = makeRoom(0, new_bytes - old_bytes, id);
   Entry& kept = entries_.at(id);  // rehash-safe: erase() does not move other nodes
   kept.stored.depth = std::move(depth);
+  static std::atomic<uint64_t> last_depth_revision{0};
+  kept.stored.depth_revision = ++last_depth_revision;
   bytes_ = bytes_ - old_bytes + new_bytes;
   kept.stored.bytes = kept.stored.bytes - old_bytes + new_bytes;
   kept.stored.state = KeyframeState::kDone;

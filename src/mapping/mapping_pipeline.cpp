@@ -56,6 +56,7 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"pose_updates_not_stored", &PipelineStats::pose_updates_not_stored},
       {"pose_updates_refused", &PipelineStats::bad_pose_updates},
       {"cpu_fallbacks", &PipelineStats::cpu_fallbacks},
+      {"fusion_cpu_fallbacks", &PipelineStats::fusion_cpu_fallbacks},
       {"reconfigurations", &PipelineStats::reconfigurations},
       {"reconfigurations_refused", &PipelineStats::bad_reconfigurations},
       {"queued", &PipelineStats::queued},
@@ -104,6 +105,13 @@ MappingPipeline::MappingPipeline(const PipelineOptions& options, Log log) : opti
   }
   backend_ = estimator_->backend();
   report(LogLevel::kInfo, "backend", std::string("depth estimation backend: ") + backendName(backend_));
+  if (backend_ == Backend::kCuda) {
+    try {
+      fuser_.reset(new DepthMapFuser(Backend::kCuda, options.fusion_resources));
+    } catch (const BackendError& e) {
+      report(LogLevel::kError, "backend", std::string("fusion on the GPU failed (") + e.what() + "), fusing on the CPU");
+    }
+  }
   EstimateFunction fallback;
   if (backend_ != Backend::kCpu) {
     fallback = [this](const DepthProblem& problem) {
@@ -136,14 +144,28 @@ void MappingPipeline::init(EstimateFunction primary, EstimateFunction fallback, 
                                           ++stats_.cpu_fallbacks;
                                         }));
   const std::string name = backend_name;
-  mapper_.reset(new OnlineMapper(options_.mapper, [this, name](const DepthProblem& problem) {
+  const auto estimate = [this, name](const DepthProblem& problem) {
     DepthMap map = (*fallback_)(problem);
     if (fallback_->switched()) {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       stats_.backend = name + " failed, now cpu";
     }
     return map;
-  }));
+  };
+  const auto fuse = [this](const std::vector<FusionView>& views, const FusionOptions& options) {
+    if (fuser_) {
+      try {
+        return fuser_->fuse(views, options);
+      } catch (const BackendError& e) {
+        report(LogLevel::kError, "fusion", std::string("fusion on the GPU failed (") + e.what() +
+                                               "), this keyframe is fused on the CPU");
+        std::lock_guard<std::mutex> lock(stats_mutex_);
+        ++stats_.fusion_cpu_fallbacks;
+      }
+    }
+    return fuseDepthMaps(views, options);
+  };
+  mapper_.reset(new OnlineMapper(options_.mapper, estimate, fuse));
 }
 
 void MappingPipeline::report(LogLevel level, const std::string& kind, const std::string& line) {
@@ -455,6 +477,11 @@ Backend MappingPipeline::backend() const { return backend_; }
 DeviceCacheStats MappingPipeline::deviceCacheStats() const {
   std::lock_guard<std::mutex> lock(mapper_mutex_);  // estimator_ is replaced under it
   return estimator_ ? estimator_->deviceCacheStats() : DeviceCacheStats();
+}
+
+FuserCacheStats MappingPipeline::fusionCacheStats() const {
+  std::lock_guard<std::mutex> lock(mapper_mutex_);
+  return fuser_ ? fuser_->cacheStats() : FuserCacheStats();
 }
 
 }  // namespace amhmvs

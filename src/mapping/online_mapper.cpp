@@ -28,6 +28,7 @@ FusionView fusionView(int local_id, const StoredKeyframe& stored) {
   view.normal = stored.depth.normal;
   view.cost = stored.depth.cost;
   view.color = stored.keyframe.image;
+  view.key = static_cast<int64_t>(stored.depth_revision);
   return view;
 }
 
@@ -70,8 +71,12 @@ std::string OnlineMapperOptions::validate() const {
   return out.str();
 }
 
-OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction estimate)
-    : options_(options), estimate_(std::move(estimate)), store_(options.store), map_(options.map) {
+OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction estimate, FuseFunction fuse)
+    : options_(options),
+      estimate_(std::move(estimate)),
+      fuse_(fuse ? std::move(fuse) : FuseFunction(fuseDepthMaps)),
+      store_(options.store),
+      map_(options.map) {
   const std::string problems = options.validate();
   if (!problems.empty()) throw InputError("online mapper options:\n" + problems);
   if (!estimate_) throw InputError("online mapper: no estimate function");
@@ -264,7 +269,7 @@ KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& view_i
   for (const FusionView& view : views) reference.source_ids.push_back(view.id);
   views.push_back(std::move(reference));
   // min_consistent_views as configured: never fewer than asked for.
-  const FusionResult fused = fuseDepthMaps(views, options_.fusion);
+  const FusionResult fused = fuse_(views, options_.fusion);
   return fused.views.back().points;
 }
 

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
-#include <unordered_set>
 
 #include "amhmvs_mapping/core/error.h"
 
@@ -100,35 +99,106 @@ bool VoxelMap::place(const Eigen::Isometry3d& camera_to_world, const KeyframePoi
   return true;
 }
 
-void VoxelMap::accumulate(const PlacedPoint& placed, const KeyframePoint& point, double sign) {
-  Voxel& voxel = voxels_[placed.key];
-  const Eigen::Vector3d offset = placed.world - voxelCentre(placed.key);
-  for (int i = 0; i < 3; ++i) {
-    voxel.offset_sum[i] += sign * offset[i];
-    voxel.normal_sum[i] += sign * placed.normal[i];
-    voxel.rgb_sum[i] += sign * point.rgb[i];
+namespace {
+
+// Insert-only open addressing (linear probing, a power-of-two table at most
+// half full) from voxel key to an entry index: the per-keyframe grouping of
+// sumPerVoxel, where std::unordered_map's node per key was most of the
+// update's time.
+class VoxelIndex {
+ public:
+  explicit VoxelIndex(size_t expected) {
+    size_t size = 16;
+    while (size < 2 * expected) size *= 2;
+    keys_.assign(size, kOutsideRegion);  // never a key of a point in a voxel
+    entries_.resize(size);
+    mask_ = size - 1;
   }
-  voxel.confidence_sum += sign * point.confidence;
-  if (sign > 0) {
+  // The entry of `key`; a new key gets `next_entry` and *inserted is set.
+  int32_t find(uint64_t key, int32_t next_entry, bool* inserted) {
+    size_t slot = (key * 0x9E3779B97F4A7C15ull) >> 20 & mask_;
+    while (keys_[slot] != key) {
+      if (keys_[slot] == kOutsideRegion) {
+        keys_[slot] = key;
+        entries_[slot] = next_entry;
+        *inserted = true;
+        return next_entry;
+      }
+      slot = (slot + 1) & mask_;
+    }
+    *inserted = false;
+    return entries_[slot];
+  }
+
+ private:
+  std::vector<uint64_t> keys_;
+  std::vector<int32_t> entries_;
+  size_t mask_ = 0;
+};
+
+}  // namespace
+
+void VoxelMap::sumPerVoxel(const std::vector<PlacedPoint>& placed, const KeyframePoints& points,
+                           std::vector<VoxelSums>* sums, std::vector<int32_t>* slot_of_point) const {
+  sums->clear();
+  slot_of_point->assign(placed.size(), -1);
+  VoxelIndex index(placed.size());
+  for (size_t i = 0; i < placed.size(); ++i) {
+    const PlacedPoint& p = placed[i];
+    if (p.key == kOutsideRegion) continue;
+    bool inserted = false;
+    const int32_t entry = index.find(p.key, static_cast<int32_t>(sums->size()), &inserted);
+    if (inserted) {
+      sums->emplace_back();
+      sums->back().key = p.key;
+    }
+    (*slot_of_point)[i] = entry;
+    Voxel& voxel = (*sums)[entry].sums;
+    const Eigen::Vector3d offset = p.world - voxelCentre(p.key);
+    for (int k = 0; k < 3; ++k) {
+      voxel.offset_sum[k] += offset[k];
+      voxel.normal_sum[k] += p.normal[k];
+      voxel.rgb_sum[k] += points[i].rgb[k];
+    }
+    voxel.confidence_sum += points[i].confidence;
     ++voxel.count;
-  } else if (--voxel.count == 0) {
-    voxels_.erase(placed.key);  // restart from exact zeros next time
+  }
+}
+
+void VoxelMap::apply(const std::vector<VoxelSums>& sums, double sign) {
+  for (const VoxelSums& entry : sums) {
+    if (entry.dropped) continue;
+    const auto found = voxels_.try_emplace(entry.key).first;
+    Voxel& voxel = found->second;
+    for (int k = 0; k < 3; ++k) {
+      voxel.offset_sum[k] += sign * entry.sums.offset_sum[k];
+      voxel.normal_sum[k] += sign * entry.sums.normal_sum[k];
+      voxel.rgb_sum[k] += sign * entry.sums.rgb_sum[k];
+    }
+    voxel.confidence_sum += sign * entry.sums.confidence_sum;
+    if (sign > 0) {
+      voxel.count += entry.sums.count;
+    } else if ((voxel.count -= entry.sums.count) == 0) {
+      voxels_.erase(found);  // restart from exact zeros next time
+    }
   }
 }
 
 void VoxelMap::removeContribution(const KeyframeContribution& contribution) {
-  PlacedPoint placed;
-  for (size_t i = 0; i < contribution.points.size(); ++i) {
-    if (contribution.keys[i] == kOutsideRegion) {
-      --points_outside_region_;
-      continue;
-    }
+  const size_t n = contribution.points.size();
+  std::vector<PlacedPoint> placed(n);
+#pragma omp parallel for if (n > 20000)
+  for (size_t i = 0; i < n; ++i) {
     // Recomputed exactly as when added; the stored key guards against any
     // difference in rounding (the sums are subtracted from the same voxel).
-    place(contribution.camera_to_world, contribution.points[i], &placed);
-    placed.key = contribution.keys[i];
-    accumulate(placed, contribution.points[i], -1.0);
+    place(contribution.camera_to_world, contribution.points[i], &placed[i]);
+    placed[i].key = contribution.keys[i];
   }
+  for (uint64_t key : contribution.keys) points_outside_region_ -= key == kOutsideRegion;
+  std::vector<VoxelSums> sums;
+  std::vector<int32_t> slots;
+  sumPerVoxel(placed, contribution.points, &sums, &slots);
+  apply(sums, -1.0);
 }
 
 void VoxelMap::evictOldest(VoxelMapUpdate* update) {
@@ -147,15 +217,18 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
                                 const Eigen::Isometry3d& camera_to_world,
                                 const KeyframePoints& points) {
   VoxelMapUpdate update;
+  const size_t n = points.size();
+  std::vector<PlacedPoint> all(n);
+  std::vector<uint8_t> valid(n);
+#pragma omp parallel for if (n > 20000)
+  for (size_t i = 0; i < n; ++i) valid[i] = place(camera_to_world, points[i], &all[i]);
+
   KeyframeContribution contribution;
-  contribution.sequence = sequence;
-  contribution.camera_to_world = camera_to_world;
   std::vector<PlacedPoint> placed;
-  placed.reserve(points.size());
-  contribution.points.reserve(points.size());
-  for (const KeyframePoint& point : points) {
-    PlacedPoint p;
-    if (!place(camera_to_world, point, &p)) {
+  placed.reserve(n);
+  contribution.points.reserve(n);
+  for (size_t i = 0; i < n; ++i) {
+    if (!valid[i]) {
       ++update.skipped_invalid;
       continue;
     }
@@ -163,48 +236,59 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
       ++update.dropped_over_budget;
       continue;
     }
+    PlacedPoint& p = all[i];
     const bool inside = (p.world.array() >= options_.region_min.array()).all() &&
                         (p.world.array() <= options_.region_max.array()).all();
     if (!inside) p.key = kOutsideRegion;
     placed.push_back(p);
-    contribution.points.push_back(point);
+    contribution.points.push_back(points[i]);
   }
+  std::vector<VoxelSums> sums;
+  std::vector<int32_t> slot_of_point;
+  sumPerVoxel(placed, contribution.points, &sums, &slot_of_point);
 
   // Make room: oldest keyframes first, until the points, the keyframe and its
   // new voxels fit.
   const auto newVoxelsNeeded = [&]() {
-    std::unordered_set<uint64_t> fresh;
-    for (const PlacedPoint& p : placed) {
-      if (p.key != kOutsideRegion && voxels_.count(p.key) == 0) fresh.insert(p.key);
-    }
-    return fresh.size();
+    size_t fresh = 0;
+    for (const VoxelSums& entry : sums) fresh += voxels_.count(entry.key) == 0;
+    return fresh;
   };
   while (!order_.empty() && (stored_points_ + placed.size() > options_.max_points ||
                              keyframes_.size() + 1 > options_.max_keyframes)) {
     evictOldest(&update);
   }
-  // The set of new voxels is counted only when all points in new voxels
-  // might not fit (counting it is most of an insert's time).
-  while (!order_.empty() && voxels_.size() + placed.size() > options_.max_voxels &&
+  while (!order_.empty() && voxels_.size() + sums.size() > options_.max_voxels &&
          voxels_.size() + newVoxelsNeeded() > options_.max_voxels) {
     evictOldest(&update);
   }
+  // Alone over the voxel budget: the voxels beyond it (in order of first
+  // appearance) are dropped with their points.
+  if (voxels_.size() + sums.size() > options_.max_voxels) {
+    size_t voxels = voxels_.size();
+    for (VoxelSums& entry : sums) {
+      if (voxels_.count(entry.key)) continue;
+      if (voxels >= options_.max_voxels) {
+        entry.dropped = true;
+      } else {
+        ++voxels;
+      }
+    }
+  }
+  apply(sums, 1.0);
 
-  // Accumulate; alone over the voxel budget, points needing a new voxel
-  // beyond it are dropped.
   KeyframeContribution kept;
   kept.sequence = sequence;
   kept.camera_to_world = camera_to_world;
   kept.points.reserve(placed.size());
   kept.keys.reserve(placed.size());
   for (size_t i = 0; i < placed.size(); ++i) {
-    const bool inside = placed[i].key != kOutsideRegion;
-    if (inside && voxels_.size() >= options_.max_voxels && voxels_.count(placed[i].key) == 0) {
+    const int32_t slot = slot_of_point[i];
+    if (slot >= 0 && sums[slot].dropped) {
       ++update.dropped_over_budget;
       continue;
     }
-    if (inside) {
-      accumulate(placed[i], contribution.points[i], 1.0);
+    if (slot >= 0) {
       ++update.added_points;
     } else {
       ++update.outside_region;

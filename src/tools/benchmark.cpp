@@ -32,6 +32,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -46,6 +47,7 @@
 
 #include "amhmvs_mapping/core/stopwatch.h"
 #include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/mapping/depth_map_fuser.h"
 #include "amhmvs_mapping/mapping/fusion.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
@@ -158,16 +160,20 @@ std::vector<Keyframe> roomKeyframes(int count, int width, int height, uint32_t s
   return keyframes;
 }
 
-// fuseDepthMaps of one 640x480 keyframe against `views` others (the true
-// depth and normals of the room scene), median of `runs` after a warm-up.
+// One 640x480 keyframe fused against `views` others (the true depth and
+// normals of the room scene), median of `runs` after a warm-up: on the CPU
+// (fuseDepthMaps) and, where there is a GPU, with DepthMapFuser as the
+// mapper uses it (the consistency views' maps resident, the reference's
+// uploaded once per keyframe: a new key every run). Wall clock, upload,
+// kernel, compaction and download included.
 std::string fusionTable(int runs) {
   std::ostringstream out;
   int threads = 1;
 #ifdef _OPENMP
   threads = omp_get_max_threads();
 #endif
-  out << "\n## Fusion (CPU, " << threads << " OpenMP threads), 640x480 keyframe, room scene\n\n"
-      << "| consistency views | median ms | min ms | points |\n|---|---|---|---|\n";
+  out << "\n## Fusion, 640x480 keyframe, room scene (CPU: " << threads << " OpenMP threads)\n\n"
+      << "| backend | consistency views | median ms | min ms | points |\n|---|---|---|---|---|\n";
   const SyntheticWorld world = makeIndoorRoomWorld(1);
   const std::vector<PinholeCamera> cameras = makeSmoothTrajectory(9, 640, 480, 1);
   std::vector<RenderedView> rendered;  // owns the images the fusion views borrow
@@ -180,28 +186,39 @@ std::string fusionTable(int runs) {
     fusion.depth = rendered[i].depth;
     fusion.normal = rendered[i].normal;
     fusion.color = rendered[i].image;
+    fusion.key = i;
     all.push_back(std::move(fusion));
   }
-  for (int sources : {4, 8}) {
-    // Only the reference keyframe is fused (the others have no sources), as
-    // the mapper fuses one keyframe against its consistency views.
-    std::vector<FusionView> views(all.begin(), all.begin() + sources + 1);
-    for (int j = 1; j <= sources; ++j) views[0].source_ids.push_back(j);
-    const FusionOptions options = FusionOptions::reprojection();
-    fuseDepthMaps(views, options);  // warm-up
-    std::vector<double> times;
-    size_t points = 0;
-    for (int r = 0; r < runs; ++r) {
-      const auto start = std::chrono::steady_clock::now();
-      const FusionResult result = fuseDepthMaps(views, options);
-      times.push_back(millisecondsSince(start));
-      points = result.pointCount();
+  std::unique_ptr<DepthMapFuser> gpu;
+  if (cudaBackendAvailable(nullptr)) gpu.reset(new DepthMapFuser(Backend::kCuda));
+  int64_t next_key = 1000;
+  for (Backend backend : {Backend::kCpu, Backend::kCuda}) {
+    if (backend == Backend::kCuda && !gpu) continue;
+    for (int sources : {4, 8}) {
+      // Only the reference keyframe is fused (the others have no sources), as
+      // the mapper fuses one keyframe against its consistency views.
+      std::vector<FusionView> views(all.begin(), all.begin() + sources + 1);
+      for (int j = 1; j <= sources; ++j) views[0].source_ids.push_back(j);
+      const FusionOptions options = FusionOptions::reprojection();
+      const auto fuse = [&]() {
+        views[0].key = next_key++;
+        return backend == Backend::kCuda ? gpu->fuse(views, options) : fuseDepthMaps(views, options);
+      };
+      fuse();  // warm-up
+      std::vector<double> times;
+      size_t points = 0;
+      for (int r = 0; r < runs; ++r) {
+        const auto start = std::chrono::steady_clock::now();
+        const FusionResult result = fuse();
+        times.push_back(millisecondsSince(start));
+        points = result.pointCount();
+      }
+      char line[200];
+      std::snprintf(line, sizeof(line), "| %s | %d | %.2f | %.2f | %zu |\n", backendName(backend), sources,
+                    median(times), *std::min_element(times.begin(), times.end()), points);
+      out << line;
+      std::fprintf(stderr, "%s", line);  // progress: visible if the run is cut short
     }
-    char line[200];
-    std::snprintf(line, sizeof(line), "| %d | %.2f | %.2f | %zu |\n", sources, median(times),
-                  *std::min_element(times.begin(), times.end()), points);
-    out << line;
-    std::fprintf(stderr, "%s", line);  // progress: visible if the run is cut short
   }
   return out.str();
 }
@@ -224,7 +241,7 @@ std::string pipelineTable(int keyframe_count) {
          "run when the queue is empty, do not); stages are medians over the keyframes "
          "with a depth map (estimate: the estimator's wall time; fusion and map: the fusions and map updates "
          "this keyframe's step did).\n\n"
-      << "| sources | backend | keyframes/s | median total ms | selection | depth range | problem | estimate "
+      << "| sources | estimate / fusion backend | keyframes/s | median total ms | selection | depth range | problem | estimate "
          "| (estimator's own) | fusion | map | rest | device images: uploads / hits / evictions |\n"
       << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   const std::vector<Keyframe> keyframes = roomKeyframes(keyframe_count, 640, 480, 1);
@@ -265,7 +282,7 @@ std::string pipelineTable(int keyframe_count) {
     char line[400];
     std::snprintf(line, sizeof(line),
                   "| %d | %s | %.1f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %s |\n", sources,
-                  stats.backend.c_str(), keyframes.size() / seconds, median(totals), median(selection), median(range),
+                  (stats.backend + " / " + backendName(pipeline.fusionBackend())).c_str(), keyframes.size() / seconds, median(totals), median(selection), median(range),
                   median(problem), median(estimate), median(own), median(fusion), median(map), median(rest),
                   cacheSummary(pipeline.deviceCacheStats()).c_str());
     out << line;

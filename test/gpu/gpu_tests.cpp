@@ -11,6 +11,9 @@
 //    at the estimator's settings: its depth maps against the same floors;
 //  - the resident image pool of the CUDA backend: same bytes with and without
 //    keys, budget, evictions, forget();
+//  - fusion on the GPU (DepthMapFuser) against the CPU's fuseDepthMaps on
+//    noisy room depth maps: one reference, and every view a reference with
+//    "each pixel once" marks; resident maps, budget and evictions;
 //  - a small scene for compute-sanitizer (--sanitize).
 //
 // usage: amhmvs_gpu_tests DATA_DIR [--sanitize] [--skip-cpu-fountain]
@@ -27,6 +30,8 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
 #include "amhmvs_mapping/io/image_io.h"
+#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/mapping/depth_map_fuser.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mvs/cpu_sampler.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
@@ -383,6 +388,129 @@ void determinism(const std::string& data) {
 }  // namespace
 }  // namespace amhmvs
 
+namespace amhmvs {
+namespace {
+
+// Rendered room views with depth noise (0.3 %) and tilted normals, so that
+// many pixels sit near the fusion's thresholds.
+struct NoisyRoom {
+  std::vector<DepthMapImages> maps;
+  std::vector<PinholeCamera> cameras;
+  NoisyRoom(int count, int width, int height) {
+    const SyntheticWorld world = makeIndoorRoomWorld(3);
+    cameras = makeSmoothTrajectory(count, width, height, 3);
+    std::mt19937 rng(11);
+    std::normal_distribution<float> noise(0.0f, 0.003f);
+    for (int i = 0; i < count; ++i) {
+      RenderedView view = renderView(world, cameras[i], 1);
+      for (float& d : view.depth.data) d *= 1.0f + noise(rng);
+      for (float& n : view.normal.data) n += 4 * noise(rng);
+      DepthMapImages images;
+      images.depth = std::move(view.depth);
+      images.normal = std::move(view.normal);
+      images.color = std::move(view.image);
+      maps.push_back(std::move(images));
+    }
+  }
+  // View i (key = i + key_offset, or none); sources as given.
+  FusionView view(int i, std::vector<int> sources, int64_t key) const {
+    FusionView v = maps[i].borrow(i, cameras[i]);
+    v.source_ids = std::move(sources);
+    v.key = key;
+    return v;
+  }
+};
+
+// Fraction of points that differ between two fusions (by count, and by
+// position beyond 1e-5 m where the lists line up).
+double fusionDifference(const FusionResult& a, const FusionResult& b, double* max_offset) {
+  size_t differing = 0, total = 0;
+  *max_offset = 0;
+  for (size_t v = 0; v < a.views.size(); ++v) {
+    const KeyframePoints& pa = a.views[v].points;
+    const KeyframePoints& pb = b.views[v].points;
+    total += std::max(pa.size(), pb.size());
+    if (pa.size() != pb.size()) {
+      differing += pa.size() > pb.size() ? pa.size() - pb.size() : pb.size() - pa.size();
+      continue;
+    }
+    for (size_t i = 0; i < pa.size(); ++i) {
+      const double offset = (pa[i].position - pb[i].position).norm();
+      *max_offset = std::max(*max_offset, offset);
+      differing += offset > 1e-5 || pa[i].consistent_views != pb[i].consistent_views;
+    }
+  }
+  return total ? static_cast<double>(differing) / total : 0.0;
+}
+
+void gpuFusion(int width, int height) {
+  const NoisyRoom room(6, width, height);
+  const FusionOptions options = FusionOptions::reprojection();
+  char text[300];
+  // The mapper's case: one reference against five views, and every view a
+  // reference against all others (marks decide which view keeps a point).
+  for (bool all_references : {false, true}) {
+    std::vector<FusionView> views;
+    for (int i = 0; i < 6; ++i) {
+      std::vector<int> sources;
+      if (i == 0 || all_references) {
+        for (int j = 0; j < 6; ++j) {
+          if (j != i) sources.push_back(j);
+        }
+      }
+      views.push_back(room.view(i, sources, i));
+    }
+    const FusionResult cpu = fuseDepthMaps(views, options);
+    DepthMapFuser fuser(Backend::kCuda);
+    const FusionResult gpu = fuser.fuse(views, options);
+    const FusionResult again = fuser.fuse(views, options);  // resident maps
+    double max_offset = 0;
+    const double differing = fusionDifference(cpu, gpu, &max_offset);
+    double repeat_offset = 0;
+    const double repeat = fusionDifference(gpu, again, &repeat_offset);
+    const FuserCacheStats stats = fuser.cacheStats();
+    std::snprintf(text, sizeof(text),
+                  "GPU fusion %dx%d, %s: %zu points (CPU %zu), candidates %zu / %zu, %.4f %% differ "
+                  "(<= 0.05 %%), max offset %.2g m; again from resident maps: identical; uploads %lu, hits %lu",
+                  width, height, all_references ? "every view a reference" : "one reference", gpu.pointCount(),
+                  cpu.pointCount(), gpu.candidate_pixels, cpu.candidate_pixels, 100 * differing, max_offset,
+                  static_cast<unsigned long>(stats.uploads), static_cast<unsigned long>(stats.hits));
+    expect(cpu.pointCount() > 1000 && differing <= 5e-4 && max_offset < 1e-4 &&
+               gpu.candidate_pixels == cpu.candidate_pixels && repeat == 0 && repeat_offset == 0 &&
+               stats.uploads == 6 && stats.hits == 6,
+           text);
+  }
+  // A budget of three maps and two alternating groups of three views:
+  // evictions, the same result each time.
+  const auto group = [&](int first) {
+    std::vector<FusionView> views;
+    for (int i = first; i < first + 3; ++i) {
+      views.push_back(room.view(i, i == first + 2 ? std::vector<int>{first, first + 1} : std::vector<int>{}, 100 + i));
+    }
+    return views;
+  };
+  FuserResources small;
+  small.device_map_budget_bytes = 3 * static_cast<size_t>(width) * height * (16 + 3);
+  DepthMapFuser budgeted(Backend::kCuda, small);
+  const FusionResult first = budgeted.fuse(group(0), options);
+  budgeted.fuse(group(3), options);
+  const FusionResult third = budgeted.fuse(group(0), options);
+  double offset = 0;
+  const double differing = fusionDifference(first, third, &offset);
+  const FuserCacheStats stats = budgeted.cacheStats();
+  std::snprintf(text, sizeof(text),
+                "GPU fusion within a 3-map budget: %lu evictions, %lu uploads, %zu of %zu bytes resident, "
+                "result identical",
+                static_cast<unsigned long>(stats.evictions), static_cast<unsigned long>(stats.uploads),
+                stats.resident_bytes, small.device_map_budget_bytes);
+  expect(stats.evictions == 6 && stats.uploads == 9 && differing == 0 && offset == 0 && first.pointCount() > 0 &&
+             stats.resident_bytes <= small.device_map_budget_bytes,
+         text);
+}
+
+}  // namespace
+}  // namespace amhmvs
+
 int main(int argc, char** argv) {
   using namespace amhmvs;
   if (argc < 2) {
@@ -418,6 +546,7 @@ int main(int argc, char** argv) {
       DepthEstimator pooled(options, Backend::kCuda, resources);
       for (int id : {0, 1, 2, 3, 9, 10}) pooled.estimate(fountain.images.makeProblem(id));
       expect(pooled.deviceCacheStats().evictions > 0, "sanitizer: resident pool with evictions ran");
+      gpuFusion(96, 72);
       return failures ? 1 : 0;
     }
     textureEmulation();
@@ -425,6 +554,7 @@ int main(int argc, char** argv) {
                 measureBilinearFetchRate());
     determinism(data);
     residentPool(data);
+    gpuFusion(640, 480);
     middlebury(data, Backend::kCuda, true);
     middlebury(data, Backend::kCpu, false);
     fountain(data, Backend::kCuda);

@@ -79,6 +79,10 @@ struct FusionView {
   ImageViewF cost;       // optional (empty or 1 channel): see FusionOptions::max_cost
   ImageViewU8 color;     // optional (empty, 1 or 3 channels RGB), same size
   std::vector<int> source_ids;  // views to check against, best first
+  // Identity of the maps' contents for a fuser that keeps them on the GPU
+  // (DepthMapFuser): equal keys must mean equal depth, normal, cost and
+  // colour images; -1: none (uploaded for one call). fuseDepthMaps ignores it.
+  int64_t key = -1;
 };
 
 // The owned images of one depth map, for callers that read or make them

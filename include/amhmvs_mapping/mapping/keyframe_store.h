@@ -79,6 +79,10 @@ struct StoredKeyframe {
   DepthMap depth;                // empty until attachDepth()
   KeyframePoints points;         // dense points, camera frame; empty until attachPoints()
   uint64_t pose_revision = 0;    // incremented by each updatePose()
+  // Unique in the process for each attached depth map (0: none yet), so that
+  // a cache of depth maps (the GPU fuser's) never confuses two of them, even
+  // across stores or after a reset.
+  uint64_t depth_revision = 0;
   // Payload bytes counted against the budget: image (and its grey copy) + depth map images
   // (depth, normal, cost) + sparse points + dense points.
   size_t bytes = 0;

@@ -42,6 +42,7 @@
 #include <string>
 #include <vector>
 
+#include "amhmvs_mapping/mapping/depth_map_fuser.h"
 #include "amhmvs_mapping/mapping/fallback_estimator.h"
 #include "amhmvs_mapping/mapping/online_mapper.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
@@ -53,6 +54,7 @@ struct PipelineOptions {
   PatchMatchOptions estimator;           // the paper's defaults
   Backend backend = Backend::kAuto;      // kAuto: CUDA when a GPU is usable, else the CPU (logged)
   EstimatorResources resources;          // GPU: device-memory budget of resident keyframe images
+  FuserResources fusion_resources;       // GPU: device-memory budget of resident depth maps (fusion)
   size_t queue_size = 4;                 // keyframes waiting for the estimator; >= 1
   int switch_to_cpu_after = 3;           // GPU failures in a row before every keyframe runs on the CPU
   bool late_depth_maps = true;           // step 3 of the scheduling
@@ -93,6 +95,7 @@ struct PipelineStats {
   uint64_t pose_updates_not_stored = 0;  // evicted, reset, or not yet processed
   uint64_t bad_pose_updates = 0;
   uint64_t cpu_fallbacks = 0;          // keyframes rerun on the CPU after a GPU failure
+  uint64_t fusion_cpu_fallbacks = 0;   // fusions redone on the CPU after a GPU failure
   uint64_t reconfigurations = 0;
   uint64_t bad_reconfigurations = 0;
   // State now.
@@ -173,6 +176,10 @@ class MappingPipeline {
   Backend backend() const;
   // The GPU estimator's resident keyframe images (zeros on the CPU).
   DeviceCacheStats deviceCacheStats() const;
+  // Where fusion runs (kCuda when the estimator does and the fuser started)
+  // and the fuser's resident depth maps.
+  Backend fusionBackend() const { return fuser_ ? Backend::kCuda : Backend::kCpu; }
+  FuserCacheStats fusionCacheStats() const;
   const PipelineOptions& options() const { return options_; }
 
  private:
@@ -196,6 +203,7 @@ class MappingPipeline {
   Backend backend_ = Backend::kCpu;
   std::unique_ptr<DepthEstimator> estimator_, cpu_estimator_;
   std::unique_ptr<FallbackEstimator> fallback_;
+  std::unique_ptr<DepthMapFuser> fuser_;  // fusion on the GPU when the estimator runs there
   std::unique_ptr<OnlineMapper> mapper_;
 
   mutable std::mutex mapper_mutex_;  // mapper_, stats_ mapper-derived fields

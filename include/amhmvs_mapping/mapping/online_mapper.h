@@ -92,6 +92,10 @@ void appendProblems(const std::string& group, const std::string& problems, std::
 // MappingPipeline does.
 using EstimateFunction = std::function<DepthMap(const DepthProblem&)>;
 
+// Fusion as the mapper calls it (fuseDepthMaps, or a DepthMapFuser on the
+// GPU). Views carry keys (FusionView::key) unique to each depth map.
+using FuseFunction = std::function<FusionResult(const std::vector<FusionView>&, const FusionOptions&)>;
+
 // One keyframe fused into the map.
 struct FusedKeyframe {
   int64_t id = 0;
@@ -140,7 +144,8 @@ struct KeyframeResult {
 class OnlineMapper {
  public:
   // Throws InputError when the options are invalid or estimate is empty.
-  OnlineMapper(const OnlineMapperOptions& options, EstimateFunction estimate);
+  // Without a fuse function the mapper fuses with fuseDepthMaps (CPU).
+  OnlineMapper(const OnlineMapperOptions& options, EstimateFunction estimate, FuseFunction fuse = FuseFunction());
 
   // Runs steps 1-6 for a keyframe. Throws InputError for an invalid keyframe
   // (nothing changes); an exception of the estimate function propagates after
@@ -217,6 +222,7 @@ class OnlineMapper {
 
   OnlineMapperOptions options_;
   EstimateFunction estimate_;
+  FuseFunction fuse_;
   KeyframeStore store_;
   VoxelMap map_;
   uint64_t map_revision_ = 0;

@@ -129,12 +129,24 @@ class VoxelMap {
     Eigen::Vector3d normal;
     uint64_t key;
   };
+  // One keyframe's points summed per voxel (first-appearance order), so that
+  // the map's hash table is touched once per voxel, not once per point.
+  struct VoxelSums {
+    uint64_t key = 0;
+    Voxel sums;
+    bool dropped = false;  // over the voxel budget: not applied
+  };
+  // Sums of the placed points inside the region; slot_of_point[i] is point
+  // i's entry (-1 outside the region).
+  void sumPerVoxel(const std::vector<PlacedPoint>& placed, const KeyframePoints& points,
+                   std::vector<VoxelSums>* sums, std::vector<int32_t>* slot_of_point) const;
+  // Adds (sign +1) or subtracts (-1) sums that are not dropped.
+  void apply(const std::vector<VoxelSums>& sums, double sign);
 
   // World position/normal and voxel key of a point; false when non-finite or
   // out of index range.
   bool place(const Eigen::Isometry3d& camera_to_world, const KeyframePoint& point,
              PlacedPoint* placed) const;
-  void accumulate(const PlacedPoint& placed, const KeyframePoint& point, double sign);
   void removeContribution(const KeyframeContribution& contribution);
   // Adds a keyframe that is not in the map, evicting older ones as needed.
   VoxelMapUpdate insert(int64_t id, uint64_t sequence, const Eigen::Isometry3d& camera_to_world,

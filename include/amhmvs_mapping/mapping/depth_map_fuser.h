@@ -1,0 +1,64 @@
+// Fusion with a backend: the CPU loop of fuseDepthMaps, or the same per-pixel
+// check (fusion_pixel.h) as a CUDA kernel, one thread per reference pixel,
+// over depth maps kept on the GPU. Results agree with fuseDepthMaps up to
+// floating-point rounding (the GPU contracts multiply-adds).
+//
+//   DepthMapFuser fuser(Backend::kAuto);
+//   FusionResult fused = fuser.fuse(views, options);  // as fuseDepthMaps
+//
+// Residency: a view with a key (FusionView::key >= 0) has its depth, normal,
+// cost and colour uploaded once and kept while they fit the device budget
+// (least recently used evicted first, counted); unkeyed views are uploaded
+// for one call.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "amhmvs_mapping/mapping/fusion.h"
+#include "amhmvs_mapping/mvs/depth_estimator.h"
+
+namespace amhmvs {
+
+struct FuserResources {
+  // Device bytes of resident depth maps (a 640x480 map with normals, cost and
+  // colour takes 6.1 MB).
+  size_t device_map_budget_bytes = size_t{512} << 20;
+};
+
+struct FuserCacheStats {
+  uint64_t uploads = 0;     // maps copied to the device
+  uint64_t hits = 0;        // keyed maps found there
+  uint64_t evictions = 0;   // keyed maps dropped to stay in the budget
+  size_t resident_bytes = 0;
+};
+
+namespace fusion {
+class ReferenceFusion;
+}
+
+class DepthMapFuser {
+ public:
+  // kAuto: CUDA when this build has it and a GPU is usable, else the CPU.
+  // kCuda without a usable GPU throws BackendError.
+  explicit DepthMapFuser(Backend backend = Backend::kAuto, const FuserResources& resources = FuserResources());
+  ~DepthMapFuser();
+  DepthMapFuser(const DepthMapFuser&) = delete;
+  DepthMapFuser& operator=(const DepthMapFuser&) = delete;
+
+  // As fuseDepthMaps (same InputErrors); BackendError when the GPU fails
+  // (e.g. out of memory), after which the fuser can still be used.
+  FusionResult fuse(const std::vector<FusionView>& views, const FusionOptions& options);
+
+  Backend backend() const { return backend_; }
+  FuserCacheStats cacheStats() const;
+
+ private:
+  Backend backend_;
+  std::unique_ptr<fusion::ReferenceFusion> cuda_;
+};
+
+}  // namespace amhmvs

@@ -1,0 +1,25 @@
+#include "amhmvs_mapping/mapping/depth_map_fuser.h"
+
+#include "amhmvs_mapping/core/error.h"
+#include "fusion_driver.h"
+
+namespace amhmvs {
+
+DepthMapFuser::DepthMapFuser(Backend backend, const FuserResources& resources) : backend_(backend) {
+  std::string why;
+  const bool gpu = cudaBackendAvailable(&why);
+  if (backend_ == Backend::kCuda && !gpu) throw BackendError("fusion on the GPU: " + why);
+  if (backend_ == Backend::kAuto) backend_ = gpu ? Backend::kCuda : Backend::kCpu;
+  if (backend_ == Backend::kCuda) cuda_ = fusion::makeCudaReferenceFusion(resources);
+}
+
+DepthMapFuser::~DepthMapFuser() = default;
+
+FusionResult DepthMapFuser::fuse(const std::vector<FusionView>& views, const FusionOptions& options) {
+  if (!cuda_) return fuseDepthMaps(views, options);
+  return fusion::runFusion(views, options, cuda_.get());
+}
+
+FuserCacheStats DepthMapFuser::cacheStats() const { return cuda_ ? cuda_->cacheStats() : FuserCacheStats(); }
+
+}  // namespace amhmvs

@@ -1,0 +1,48 @@
+// Internal: the part of fuseDepthMaps that does not depend on where the
+// per-pixel check runs. The driver validates the input, orders the views by
+// id (the order that decides which view keeps a point), skips references with
+// fewer sources than min_consistent_views, and hands each reference to a
+// backend (CPU loop in fusion.cpp, CUDA kernel in cuda/cuda_fusion.cu).
+#pragma once
+
+#include <vector>
+
+#include <memory>
+
+#include "amhmvs_mapping/mapping/depth_map_fuser.h"
+#include "amhmvs_mapping/mapping/fusion.h"
+#include "amhmvs_mapping/mapping/fusion_pixel.h"
+
+namespace amhmvs {
+namespace fusion {
+
+class ReferenceFusion {
+ public:
+  virtual ~ReferenceFusion() = default;
+  // Called once per fuseDepthMaps call with the views in processing order.
+  virtual void begin(const std::vector<const FusionView*>& views, const FusionOptions& options) = 0;
+  // Fuses views[reference] against views[sources] (indices into begin's
+  // views): appends the emitted points in row-major pixel order, applies the
+  // "used" marks when options.fuse_each_pixel_once, and returns the number of
+  // candidate pixels (valid depth and normal, not used before).
+  virtual size_t fuseReference(int reference, const std::vector<int>& sources,
+                               KeyframePoints* points) = 0;
+  virtual FuserCacheStats cacheStats() const { return {}; }
+};
+
+// The CUDA backend (cuda/cuda_fusion.cu; throws BackendError in builds
+// without it).
+std::unique_ptr<ReferenceFusion> makeCudaReferenceFusion(const FuserResources& resources);
+
+FusionResult runFusion(const std::vector<FusionView>& views, const FusionOptions& options,
+                       ReferenceFusion* backend);
+
+// The camera of a view in the check's form, with the given maps (host or
+// device pointers).
+ViewData viewData(const FusionView& view, const float* depth, const float* normal,
+                  const float* cost, const uint8_t* color, const uint8_t* used);
+Checks checks(const FusionOptions& options);
+KeyframePoint toKeyframePoint(const FusedPoint& point);
+
+}  // namespace fusion
+}  // namespace amhmvs
