@@ -88,9 +88,11 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
   result.id = keyframe.id;
   result.camera = keyframe.camera;
   noteEvicted(store_.add(std::move(keyframe)), &result);
+  result.times.store_ms = millisecondsSince(start);
   const int64_t id = result.id;
+  const Clock::time_point selection_start = Clock::now();
   result.selection = selectSources(store_, id, options_.sources);
-  result.times.selection_ms = millisecondsSince(start);
+  result.times.selection_ms = millisecondsSince(selection_start);
 
   if (result.selection.source_ids.empty()) {
     // Kept as a source: done, with a depth map that has no valid pixel.
@@ -183,7 +185,9 @@ void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
   result->depth = estimate_(problem);
   result->times.estimate_ms = millisecondsSince(start);
   result->has_depth = true;
+  start = Clock::now();
   noteEvicted(store_.attachDepth(id, result->depth), result);
+  result->times.store_ms += millisecondsSince(start);
   if (!store_.contains(id)) return;
   EstimateRecord& record = estimates_[id];
   record.sources = sources;
@@ -219,7 +223,9 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
   for (int64_t id : candidates) {
     if (std::find(waiting_.begin(), waiting_.end(), id) == waiting_.end()) continue;  // evicted meanwhile
     FusedKeyframe fused;
+    Clock::time_point start = Clock::now();
     fused.consistency_ids = consistencyViews(id);
+    result->times.fusion_ms += millisecondsSince(start);
     if (fused.consistency_ids.size() < required) continue;
     waiting_.erase(std::find(waiting_.begin(), waiting_.end(), id));
     fused.id = id;
@@ -228,12 +234,16 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
     record.fused = true;
     fused.stamp = store_.keyframe(id).stamp;
     fused.camera = store_.keyframe(id).camera;
-    Clock::time_point start = Clock::now();
+    start = Clock::now();
     fused.points = fuse(id, fused.consistency_ids);
     result->times.fusion_ms += millisecondsSince(start);
+    if (!fused.points.empty()) {
+      start = Clock::now();
+      noteEvicted(store_.attachPoints(id, fused.points), result);
+      result->times.store_ms += millisecondsSince(start);
+    }
     start = Clock::now();
     if (!fused.points.empty()) {
-      noteEvicted(store_.attachPoints(id, fused.points), result);
       fused.map_update = map_.addKeyframe(id, store_.keyframe(id).cameraToWorld(), fused.points);  // replaces
       ++map_revision_;
     } else if (map_.contains(id)) {

@@ -108,15 +108,17 @@ namespace {
 class VoxelIndex {
  public:
   explicit VoxelIndex(size_t expected) {
-    size_t size = 16;
-    while (size < 2 * expected) size *= 2;
-    keys_.assign(size, kOutsideRegion);  // never a key of a point in a voxel
-    entries_.resize(size);
-    mask_ = size - 1;
+    int bits = 4;
+    while ((size_t{1} << bits) < 2 * expected) ++bits;
+    keys_.assign(size_t{1} << bits, kOutsideRegion);  // never a key of a point in a voxel
+    entries_.resize(keys_.size());
+    mask_ = keys_.size() - 1;
+    shift_ = 64 - bits;
   }
   // The entry of `key`; a new key gets `next_entry` and *inserted is set.
   int32_t find(uint64_t key, int32_t next_entry, bool* inserted) {
-    size_t slot = (key * 0x9E3779B97F4A7C15ull) >> 20 & mask_;
+    // Fibonacci hashing: the product's top bits depend on every key bit.
+    size_t slot = static_cast<size_t>((key * 0x9E3779B97F4A7C15ull) >> shift_);
     while (keys_[slot] != key) {
       if (keys_[slot] == kOutsideRegion) {
         keys_[slot] = key;
@@ -134,6 +136,7 @@ class VoxelIndex {
   std::vector<uint64_t> keys_;
   std::vector<int32_t> entries_;
   size_t mask_ = 0;
+  int shift_ = 60;
 };
 
 }  // namespace
@@ -143,14 +146,20 @@ void VoxelMap::sumPerVoxel(const std::vector<PlacedPoint>& placed, const Keyfram
   sums->clear();
   slot_of_point->assign(placed.size(), -1);
   VoxelIndex index(placed.size());
+  uint64_t last_key = kOutsideRegion;
+  int32_t entry = -1;
   for (size_t i = 0; i < placed.size(); ++i) {
     const PlacedPoint& p = placed[i];
     if (p.key == kOutsideRegion) continue;
-    bool inserted = false;
-    const int32_t entry = index.find(p.key, static_cast<int32_t>(sums->size()), &inserted);
-    if (inserted) {
-      sums->emplace_back();
-      sums->back().key = p.key;
+    // Neighbouring pixels (points come in image order) often share a voxel.
+    if (p.key != last_key) {
+      bool inserted = false;
+      entry = index.find(p.key, static_cast<int32_t>(sums->size()), &inserted);
+      if (inserted) {
+        sums->emplace_back();
+        sums->back().key = p.key;
+      }
+      last_key = p.key;
     }
     (*slot_of_point)[i] = entry;
     Voxel& voxel = (*sums)[entry].sums;
@@ -223,26 +232,27 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
 #pragma omp parallel for if (n > 20000)
   for (size_t i = 0; i < n; ++i) valid[i] = place(camera_to_world, points[i], &all[i]);
 
+  // The usable points, compacted in place (order kept).
   KeyframeContribution contribution;
-  std::vector<PlacedPoint> placed;
-  placed.reserve(n);
+  std::vector<PlacedPoint>& placed = all;
+  size_t count = 0;
   contribution.points.reserve(n);
   for (size_t i = 0; i < n; ++i) {
     if (!valid[i]) {
       ++update.skipped_invalid;
       continue;
     }
-    if (placed.size() >= options_.max_points) {
+    if (count >= options_.max_points) {
       ++update.dropped_over_budget;
       continue;
     }
-    PlacedPoint& p = all[i];
+    PlacedPoint& p = placed[count++] = all[i];
     const bool inside = (p.world.array() >= options_.region_min.array()).all() &&
                         (p.world.array() <= options_.region_max.array()).all();
     if (!inside) p.key = kOutsideRegion;
-    placed.push_back(p);
     contribution.points.push_back(points[i]);
   }
+  placed.resize(count);
   std::vector<VoxelSums> sums;
   std::vector<int32_t> slot_of_point;
   sumPerVoxel(placed, contribution.points, &sums, &slot_of_point);
@@ -280,8 +290,9 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
   KeyframeContribution kept;
   kept.sequence = sequence;
   kept.camera_to_world = camera_to_world;
-  kept.points.reserve(placed.size());
   kept.keys.reserve(placed.size());
+  const bool any_dropped = std::any_of(sums.begin(), sums.end(), [](const VoxelSums& v) { return v.dropped; });
+  if (!any_dropped) kept.points = std::move(contribution.points);  // the usual case: no second copy
   for (size_t i = 0; i < placed.size(); ++i) {
     const int32_t slot = slot_of_point[i];
     if (slot >= 0 && sums[slot].dropped) {
@@ -293,7 +304,7 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
     } else {
       ++update.outside_region;
     }
-    kept.points.push_back(contribution.points[i]);
+    if (any_dropped) kept.points.push_back(contribution.points[i]);
     kept.keys.push_back(placed[i].key);
   }
   points_outside_region_ += update.outside_region;

@@ -115,7 +115,8 @@ struct StageTimes {
   double depth_range_ms = 0;
   double problem_ms = 0;       // the depth problem (cameras, grey images)
   double estimate_ms = 0;      // the estimator, wall clock (its own time: DepthMap::milliseconds)
-  double fusion_ms = 0;        // consistency checks of the keyframes fused by this result
+  double store_ms = 0;         // copies into the keyframe store (keyframe, depth map, fused points)
+  double fusion_ms = 0;        // consistency views and checks of the keyframes fused by this result
   double map_ms = 0;           // voxel map updates
   double total_ms = 0;         // the whole call (without queue_wait_ms)
 };
