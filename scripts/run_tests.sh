@@ -151,6 +151,15 @@ else
   ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped)
 fi
 
+# The package the way a ROS user builds it: in a fresh catkin workspace
+# (temporary, outside the repository), `catkin_make install` of the CPU build
+# without tests and offline tools, then from the install space `rosrun
+# amhmvs_mapping amhmvs_depth --help` and the rostest missing_tf.
+echo "== catkin workspace (catkin_make install; rosrun and rostest from install/) =="
+run_logged "catkin workspace" "$build/test_results/catkin_workspace.log" \
+  "$here/scripts/test_catkin_workspace.sh" "$build/test_results/catkin_workspace"
+ros_runs+=("script:$rc")
+
 # The README's first command in a short configuration (4 frames at 160x120 on
 # the CPU, no install or build; about a minute with the rviz picture), its
 # summary and outputs checked against floors (measured: 68.6 / 81.1 % of the
