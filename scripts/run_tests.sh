@@ -108,7 +108,7 @@ grep -E "executions|FINDING" "$core_results/fuzzers.log" || true
 # messages with sparse points from a small SLAM adapter, the temple bag
 # (odometry input, the object's box as the map's region of interest: every
 # map point in the box), the ICL bag (plumbing), keyframe mode with the
-# services and a loop closure, a missing transform, silent input topics, bad
+# services and a loop closure, a missing and a late transform, silent input topics, bad
 # and hostile input.
 echo "== ROS tests (message conversions; rostest) =="
 ros_results=$build/test_results/ros
