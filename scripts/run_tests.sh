@@ -108,7 +108,7 @@ grep -E "executions|FINDING" "$core_results/fuzzers.log" || true
 # messages with sparse points from a small SLAM adapter, the temple bag
 # (odometry input, the object's box as the map's region of interest: every
 # map point in the box), the ICL bag (plumbing), keyframe mode with the
-# services and a loop closure, a missing transform, silent input topics, bad
+# services and a loop closure, a missing and a late transform, silent input topics, bad
 # and hostile input.
 echo "== ROS tests (message conversions; rostest) =="
 ros_results=$build/test_results/ros
@@ -150,6 +150,15 @@ else
   echo "rostest: skipped, no bag at $bag"
   ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped)
 fi
+
+# The package the way a ROS user builds it: in a fresh catkin workspace
+# (temporary, outside the repository), `catkin_make install` of the CPU build
+# without tests and offline tools, then from the install space `rosrun
+# amhmvs_mapping amhmvs_depth --help` and the rostest missing_tf.
+echo "== catkin workspace (catkin_make install; rosrun and rostest from install/) =="
+run_logged "catkin workspace" "$build/test_results/catkin_workspace.log" \
+  "$here/scripts/test_catkin_workspace.sh" "$build/test_results/catkin_workspace"
+ros_runs+=("script:$rc")
 
 # The README's first command in a short configuration (4 frames at 160x120 on
 # the CPU, no install or build; about a minute with the rviz picture), its

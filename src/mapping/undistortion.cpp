@@ -35,6 +35,7 @@ std::string parseDistortion(const std::string& model, const std::vector<double>&
       if (!std::isfinite(c)) return "distortion coefficient is not finite";
     distortion->model = info.model;
     distortion->coefficients = d;
+    distortion->coefficients.resize(info.coefficients, 0.0);
     return "";
   }
   return "distortion model '" + model + "' is not plumb_bob, rational_polynomial or equidistant";

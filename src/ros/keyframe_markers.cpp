@@ -2,18 +2,12 @@
 
 #include <array>
 
+#include <tf2_eigen/tf2_eigen.h>
+
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 
 namespace amhmvs_mapping {
 namespace {
-
-geometry_msgs::Point pointMsg(const Eigen::Vector3d& p) {
-  geometry_msgs::Point msg;
-  msg.x = p.x();
-  msg.y = p.y();
-  msg.z = p.z();
-  return msg;
-}
 
 visualization_msgs::Marker lineList(const std::string& ns, const std_msgs::Header& header, float r, float g,
                                     float b) {
@@ -33,8 +27,8 @@ visualization_msgs::Marker lineList(const std::string& ns, const std_msgs::Heade
 }
 
 void addSegment(const Eigen::Vector3d& a, const Eigen::Vector3d& b, visualization_msgs::Marker* marker) {
-  marker->points.push_back(pointMsg(a));
-  marker->points.push_back(pointMsg(b));
+  marker->points.push_back(tf2::toMsg(a));
+  marker->points.push_back(tf2::toMsg(b));
 }
 
 }  // namespace

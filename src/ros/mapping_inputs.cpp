@@ -5,10 +5,9 @@
 #include <sstream>
 
 #include <nodelet/nodelet.h>
-#include <tf2/exceptions.h>
+#include <tf2_eigen/tf2_eigen.h>
 
 #include "amhmvs_mapping/core/error.h"
-#include "amhmvs_mapping/mapping/undistortion.h"
 #include "amhmvs_mapping/mvs/problem_builder.h"
 #include "amhmvs_mapping/ros/ros_conversions.h"
 
@@ -73,8 +72,11 @@ MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const Ma
         static_cast<const OdometrySync&>(policy), *image_filter_, *info_filter_, *odometry_filter_));
     odometry_sync_->registerCallback(&MappingInputs::odometryCallback, this);
   } else {
-    tf_buffer_.reset(new tf2_ros::Buffer());
-    tf_listener_.reset(new tf2_ros::TransformListener(*tf_buffer_, nh));
+    tf_frames_.reset(new TfFrameFilter(
+        nh, config_.fixed_frame, config_.tf_timeout, q,
+        [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
+               const geometry_msgs::Pose& pose) { offerImage(image, info, config_.fixed_frame, pose); },
+        [this](const std::string& reason) { drop(&InputStats::dropped_missing_tf, reason); }));
     CameraSync policy(q);
     policy.setMaxIntervalDuration(max_interval);
     camera_sync_.reset(new message_filters::Synchronizer<CameraSync>(static_cast<const CameraSync&>(policy),
@@ -87,6 +89,7 @@ MappingInputs::~MappingInputs() {
   pose_sync_.reset();
   odometry_sync_.reset();
   camera_sync_.reset();
+  tf_frames_.reset();
   odometry_filter_.reset();
   image_filter_.reset();
   info_filter_.reset();
@@ -203,7 +206,8 @@ void MappingInputs::keyframeCallback(const amhmvs_mapping::KeyframeConstPtr& msg
   frame.info = sensor_msgs::CameraInfoConstPtr(msg, &msg->camera_info);
   frame.min_depth = msg->min_depth;
   frame.max_depth = msg->max_depth;
-  for (const geometry_msgs::Point& p : msg->sparse_points) frame.sparse_points.emplace_back(p.x, p.y, p.z);
+  frame.sparse_points.resize(msg->sparse_points.size());
+  for (size_t i = 0; i < msg->sparse_points.size(); ++i) tf2::fromMsg(msg->sparse_points[i], frame.sparse_points[i]);
   offer(std::move(frame), msg->camera_to_world, false);
 }
 
@@ -248,33 +252,7 @@ void MappingInputs::offerImage(const sensor_msgs::ImageConstPtr& image, const se
 void MappingInputs::cameraCallback(const sensor_msgs::ImageConstPtr& image,
                                    const sensor_msgs::CameraInfoConstPtr& info) {
   noteSynchronised();
-  // Polls with a wall-clock timeout: tf2's own timeout runs on ROS time,
-  // which stands still when a replayed bag ends (the callback would hang).
-  const std::string& source = image->header.frame_id;
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(config_.tf_timeout);
-  std::string error;
-  while (!tf_buffer_->canTransform(config_.fixed_frame, source, image->header.stamp, &error)) {
-    if (ros::WallTime::now() >= deadline || !ros::ok()) {
-      drop(&InputStats::dropped_missing_tf, "no transform " + config_.fixed_frame + " <- " + source + " within " +
-                                                std::to_string(config_.tf_timeout) + " s: " + error);
-      return;
-    }
-    error.clear();
-    ros::WallDuration(0.005).sleep();
-  }
-  geometry_msgs::TransformStamped transform;
-  try {
-    transform = tf_buffer_->lookupTransform(config_.fixed_frame, source, image->header.stamp);
-  } catch (const tf2::TransformException& e) {
-    drop(&InputStats::dropped_missing_tf, e.what());
-    return;
-  }
-  geometry_msgs::Pose pose;
-  pose.position.x = transform.transform.translation.x;
-  pose.position.y = transform.transform.translation.y;
-  pose.position.z = transform.transform.translation.z;
-  pose.orientation = transform.transform.rotation;
-  offerImage(image, info, config_.fixed_frame, pose);
+  tf_frames_->add(image, info);  // on to offerImage() once tf has the pose
 }
 
 void MappingInputs::offer(Frame frame, const geometry_msgs::Pose& pose, bool pick) {
@@ -357,11 +335,9 @@ amhmvs::Keyframe MappingInputs::toKeyframe(const Frame& frame) const {
   if (problem.empty())
     problem = cameraFromMsg(*frame.info, keyframe.image.width, keyframe.image.height, frame.camera_to_world,
                             &keyframe.camera);
-  amhmvs::Distortion distortion;
-  if (problem.empty()) problem = amhmvs::parseDistortion(frame.info->distortion_model, frame.info->D, &distortion);
   if (!problem.empty()) throw amhmvs::InputError(problem);
   // Undistorted to the pinhole with the same K (what depth/camera_info says).
-  if (!distortion.isZero()) keyframe.image = amhmvs::undistortImage(keyframe.image, keyframe.camera, distortion);
+  rectifier_.undistort(*frame.info, &keyframe.image);
   // Downscaled as the offline tools do (ProblemOptions::max_image_size).
   amhmvs::ProblemOptions size_options;
   size_options.max_image_size = config_.max_image_size;

@@ -10,6 +10,7 @@
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
+#include <tf2_eigen/tf2_eigen.h>
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/io/colormap.h"
@@ -74,24 +75,13 @@ std::string poseFromMsg(const geometry_msgs::Pose& msg, Eigen::Isometry3d* camer
     out << "pose is not rigid: quaternion norm " << norm << " (must be 1)";
     return out.str();
   }
-  camera_to_world->setIdentity();
-  camera_to_world->linear() = quaternion.normalized().toRotationMatrix();
-  camera_to_world->translation() = Eigen::Vector3d(p.x, p.y, p.z);
+  geometry_msgs::Pose rigid = msg;
+  rigid.orientation = tf2::toMsg(quaternion.normalized());
+  tf2::fromMsg(rigid, *camera_to_world);
   return "";
 }
 
-geometry_msgs::Pose poseToMsg(const Eigen::Isometry3d& camera_to_world) {
-  geometry_msgs::Pose msg;
-  const Eigen::Quaterniond q(camera_to_world.linear());
-  msg.orientation.w = q.w();
-  msg.orientation.x = q.x();
-  msg.orientation.y = q.y();
-  msg.orientation.z = q.z();
-  msg.position.x = camera_to_world.translation().x();
-  msg.position.y = camera_to_world.translation().y();
-  msg.position.z = camera_to_world.translation().z();
-  return msg;
-}
+geometry_msgs::Pose poseToMsg(const Eigen::Isometry3d& camera_to_world) { return tf2::toMsg(camera_to_world); }
 
 std::string cameraFromMsg(const sensor_msgs::CameraInfo& info, int width, int height,
                           const Eigen::Isometry3d& camera_to_world, amhmvs::PinholeCamera* camera,

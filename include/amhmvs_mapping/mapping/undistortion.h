@@ -27,7 +27,7 @@ enum class DistortionModel { kPlumbBob, kRationalPolynomial, kEquidistant };
 
 struct Distortion {
   DistortionModel model = DistortionModel::kPlumbBob;
-  std::vector<double> coefficients;  // see the file comment; missing ones are 0
+  std::vector<double> coefficients;  // see the file comment; parseDistortion pads them with 0s to the model's count
 
   // True when every coefficient is 0 (nothing to undistort).
   bool isZero() const;

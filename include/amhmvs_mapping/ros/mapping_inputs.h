@@ -2,7 +2,8 @@
 //   pose:     image (image_transport) + camera_info + pose (PoseStamped,
 //             camera-to-world of the optical frame), approximate-time synced;
 //   odometry: the same with odom (nav_msgs/Odometry) instead of pose;
-//   tf:       image + camera_info, pose from tf2: fixed_frame <- image frame;
+//   tf:       image + camera_info, pose from tf2: fixed_frame <- image frame
+//             (TfFrameFilter: held until the transform is there, no waiting);
 //   keyframe: keyframe (amhmvs_mapping/Keyframe);
 // and, in every mode, keyframe_poses (KeyframePoses: loop-closure updates).
 // In pose, odometry and tf modes a frame becomes a keyframe when it moved at
@@ -36,13 +37,13 @@
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <std_msgs/Header.h>
-#include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_listener.h>
 
 #include "amhmvs_mapping/Keyframe.h"
 #include "amhmvs_mapping/KeyframePoses.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
+#include "amhmvs_mapping/ros/image_rectifier.h"
 #include "amhmvs_mapping/ros/mapping_config.h"
+#include "amhmvs_mapping/ros/tf_frame_filter.h"
 
 namespace amhmvs_mapping {
 
@@ -160,8 +161,8 @@ class MappingInputs {
   std::unique_ptr<message_filters::Synchronizer<PoseSync>> pose_sync_;
   std::unique_ptr<message_filters::Synchronizer<OdometrySync>> odometry_sync_;
   std::unique_ptr<message_filters::Synchronizer<CameraSync>> camera_sync_;
-  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
-  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<TfFrameFilter> tf_frames_;
+  mutable ImageRectifier rectifier_;
 
   // Picking and stamp order (subscriber threads).
   std::mutex input_mutex_;

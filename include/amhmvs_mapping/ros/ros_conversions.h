@@ -39,7 +39,7 @@ geometry_msgs::Pose poseToMsg(const Eigen::Isometry3d& camera_to_world);
 // Checks that the CameraInfo matches an image of width x height (its size,
 // K with positive finite focal lengths) and returns the pinhole camera with
 // the given pose. `distorted` (optional) tells whether D has a non-zero
-// coefficient (the nodelet undistorts with mapping/undistortion.h).
+// coefficient (the nodelet undistorts with ros/image_rectifier.h).
 std::string cameraFromMsg(const sensor_msgs::CameraInfo& info, int width, int height,
                           const Eigen::Isometry3d& camera_to_world, amhmvs::PinholeCamera* camera,
                           bool* distorted = nullptr);
