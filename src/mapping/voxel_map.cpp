@@ -142,55 +142,97 @@ class VoxelIndex {
 }  // namespace
 
 void VoxelMap::sumPerVoxel(const std::vector<PlacedPoint>& placed, const KeyframePoints& points,
-                           std::vector<VoxelSums>* sums, std::vector<int32_t>* slot_of_point) const {
-  sums->clear();
-  slot_of_point->assign(placed.size(), -1);
-  VoxelIndex index(placed.size());
-  uint64_t last_key = kOutsideRegion;
-  int32_t entry = -1;
-  for (size_t i = 0; i < placed.size(); ++i) {
-    const PlacedPoint& p = placed[i];
-    if (p.key == kOutsideRegion) continue;
-    // Neighbouring pixels (points come in image order) often share a voxel.
-    if (p.key != last_key) {
-      bool inserted = false;
-      entry = index.find(p.key, static_cast<int32_t>(sums->size()), &inserted);
-      if (inserted) {
-        sums->emplace_back();
-        sums->back().key = p.key;
+                           KeyframeSums* sums) const {
+  const size_t n = placed.size();
+  sums->voxel_of_point.assign(n, -1);
+  // The points of each shard, in point order (a counting sort).
+  std::vector<uint8_t> shard_of_point(n);
+  size_t shard_start[kShards + 1] = {};
+  for (size_t i = 0; i < n; ++i) {
+    shard_of_point[i] = placed[i].key == kOutsideRegion ? kShards : shardOf(placed[i].key);
+    if (shard_of_point[i] < kShards) ++shard_start[shard_of_point[i] + 1];
+  }
+  for (int shard = 0; shard < kShards; ++shard) shard_start[shard + 1] += shard_start[shard];
+  std::vector<uint32_t> points_by_shard(shard_start[kShards]);
+  {
+    size_t next[kShards];
+    std::copy(shard_start, shard_start + kShards, next);
+    for (size_t i = 0; i < n; ++i) {
+      if (shard_of_point[i] < kShards) points_by_shard[next[shard_of_point[i]]++] = static_cast<uint32_t>(i);
+    }
+  }
+  std::vector<VoxelSums> per_shard[kShards];
+#pragma omp parallel for schedule(dynamic) if (n > 20000)
+  for (int shard = 0; shard < kShards; ++shard) {
+    std::vector<VoxelSums>& out = per_shard[shard];
+    VoxelIndex index(shard_start[shard + 1] - shard_start[shard]);  // at most half full: probing ends
+    uint64_t last_key = kOutsideRegion;
+    int32_t entry = -1;
+    for (size_t j = shard_start[shard]; j < shard_start[shard + 1]; ++j) {
+      const size_t i = points_by_shard[j];
+      const PlacedPoint& p = placed[i];
+      // Neighbouring pixels (points come in image order) often share a voxel.
+      if (p.key != last_key) {
+        bool inserted = false;
+        entry = index.find(p.key, static_cast<int32_t>(out.size()), &inserted);
+        if (inserted) {
+          out.emplace_back();
+          out.back().key = p.key;
+          out.back().first_point = static_cast<uint32_t>(i);
+        }
+        last_key = p.key;
       }
-      last_key = p.key;
+      sums->voxel_of_point[i] = entry;  // local to the shard until the offsets are known
+      Voxel& voxel = out[entry].sums;
+      const Eigen::Vector3d offset = p.world - voxelCentre(p.key);
+      for (int k = 0; k < 3; ++k) {
+        voxel.offset_sum[k] += offset[k];
+        voxel.normal_sum[k] += p.normal[k];
+        voxel.rgb_sum[k] += points[i].rgb[k];
+      }
+      voxel.confidence_sum += points[i].confidence;
+      ++voxel.count;
     }
-    (*slot_of_point)[i] = entry;
-    Voxel& voxel = (*sums)[entry].sums;
-    const Eigen::Vector3d offset = p.world - voxelCentre(p.key);
-    for (int k = 0; k < 3; ++k) {
-      voxel.offset_sum[k] += offset[k];
-      voxel.normal_sum[k] += p.normal[k];
-      voxel.rgb_sum[k] += points[i].rgb[k];
-    }
-    voxel.confidence_sum += points[i].confidence;
-    ++voxel.count;
+  }
+  sums->voxels.clear();
+  for (int shard = 0; shard < kShards; ++shard) {
+    sums->shard_begin[shard] = sums->voxels.size();
+    sums->voxels.insert(sums->voxels.end(), per_shard[shard].begin(), per_shard[shard].end());
+  }
+  sums->shard_begin[kShards] = sums->voxels.size();
+  for (size_t i = 0; i < n; ++i) {
+    if (shard_of_point[i] < kShards) sums->voxel_of_point[i] += static_cast<int32_t>(sums->shard_begin[shard_of_point[i]]);
   }
 }
 
-void VoxelMap::apply(const std::vector<VoxelSums>& sums, double sign) {
-  for (const VoxelSums& entry : sums) {
-    if (entry.dropped) continue;
-    const auto found = voxels_.try_emplace(entry.key).first;
-    Voxel& voxel = found->second;
-    for (int k = 0; k < 3; ++k) {
-      voxel.offset_sum[k] += sign * entry.sums.offset_sum[k];
-      voxel.normal_sum[k] += sign * entry.sums.normal_sum[k];
-      voxel.rgb_sum[k] += sign * entry.sums.rgb_sum[k];
-    }
-    voxel.confidence_sum += sign * entry.sums.confidence_sum;
-    if (sign > 0) {
-      voxel.count += entry.sums.count;
-    } else if ((voxel.count -= entry.sums.count) == 0) {
-      voxels_.erase(found);  // restart from exact zeros next time
+void VoxelMap::apply(const KeyframeSums& sums, double sign) {
+#pragma omp parallel for schedule(dynamic) if (sums.voxels.size() > 2000)
+  for (int shard = 0; shard < kShards; ++shard) {
+    VoxelTable& table = shards_[shard];
+    for (size_t v = sums.shard_begin[shard]; v < sums.shard_begin[shard + 1]; ++v) {
+      const VoxelSums& entry = sums.voxels[v];
+      if (entry.dropped) continue;
+      const auto found = table.try_emplace(entry.key).first;
+      Voxel& voxel = found->second;
+      for (int k = 0; k < 3; ++k) {
+        voxel.offset_sum[k] += sign * entry.sums.offset_sum[k];
+        voxel.normal_sum[k] += sign * entry.sums.normal_sum[k];
+        voxel.rgb_sum[k] += sign * entry.sums.rgb_sum[k];
+      }
+      voxel.confidence_sum += sign * entry.sums.confidence_sum;
+      if (sign > 0) {
+        voxel.count += entry.sums.count;
+      } else if ((voxel.count -= entry.sums.count) == 0) {
+        table.erase(found);  // restart from exact zeros next time
+      }
     }
   }
+}
+
+size_t VoxelMap::voxelCount() const {
+  size_t count = 0;
+  for (const VoxelTable& table : shards_) count += table.size();
+  return count;
 }
 
 void VoxelMap::removeContribution(const KeyframeContribution& contribution) {
@@ -204,9 +246,8 @@ void VoxelMap::removeContribution(const KeyframeContribution& contribution) {
     placed[i].key = contribution.keys[i];
   }
   for (uint64_t key : contribution.keys) points_outside_region_ -= key == kOutsideRegion;
-  std::vector<VoxelSums> sums;
-  std::vector<int32_t> slots;
-  sumPerVoxel(placed, contribution.points, &sums, &slots);
+  KeyframeSums sums;
+  sumPerVoxel(placed, contribution.points, &sums);
   apply(sums, -1.0);
 }
 
@@ -253,35 +294,39 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
     contribution.points.push_back(points[i]);
   }
   placed.resize(count);
-  std::vector<VoxelSums> sums;
-  std::vector<int32_t> slot_of_point;
-  sumPerVoxel(placed, contribution.points, &sums, &slot_of_point);
+  KeyframeSums sums;
+  sumPerVoxel(placed, contribution.points, &sums);
+  std::vector<VoxelSums>& voxels = sums.voxels;
 
   // Make room: oldest keyframes first, until the points, the keyframe and its
   // new voxels fit.
   const auto newVoxelsNeeded = [&]() {
     size_t fresh = 0;
-    for (const VoxelSums& entry : sums) fresh += voxels_.count(entry.key) == 0;
+    for (const VoxelSums& entry : voxels) fresh += shard(entry.key).count(entry.key) == 0;
     return fresh;
   };
   while (!order_.empty() && (stored_points_ + placed.size() > options_.max_points ||
                              keyframes_.size() + 1 > options_.max_keyframes)) {
     evictOldest(&update);
   }
-  while (!order_.empty() && voxels_.size() + sums.size() > options_.max_voxels &&
-         voxels_.size() + newVoxelsNeeded() > options_.max_voxels) {
+  while (!order_.empty() && voxelCount() + voxels.size() > options_.max_voxels &&
+         voxelCount() + newVoxelsNeeded() > options_.max_voxels) {
     evictOldest(&update);
   }
   // Alone over the voxel budget: the voxels beyond it (in order of first
   // appearance) are dropped with their points.
-  if (voxels_.size() + sums.size() > options_.max_voxels) {
-    size_t voxels = voxels_.size();
-    for (VoxelSums& entry : sums) {
-      if (voxels_.count(entry.key)) continue;
-      if (voxels >= options_.max_voxels) {
-        entry.dropped = true;
+  if (voxelCount() + voxels.size() > options_.max_voxels) {
+    std::vector<VoxelSums*> by_first_point;
+    for (VoxelSums& entry : voxels) by_first_point.push_back(&entry);
+    std::sort(by_first_point.begin(), by_first_point.end(),
+              [](const VoxelSums* a, const VoxelSums* b) { return a->first_point < b->first_point; });
+    size_t count = voxelCount();
+    for (VoxelSums* entry : by_first_point) {
+      if (shard(entry->key).count(entry->key)) continue;
+      if (count >= options_.max_voxels) {
+        entry->dropped = true;
       } else {
-        ++voxels;
+        ++count;
       }
     }
   }
@@ -291,11 +336,11 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
   kept.sequence = sequence;
   kept.camera_to_world = camera_to_world;
   kept.keys.reserve(placed.size());
-  const bool any_dropped = std::any_of(sums.begin(), sums.end(), [](const VoxelSums& v) { return v.dropped; });
+  const bool any_dropped = std::any_of(voxels.begin(), voxels.end(), [](const VoxelSums& v) { return v.dropped; });
   if (!any_dropped) kept.points = std::move(contribution.points);  // the usual case: no second copy
   for (size_t i = 0; i < placed.size(); ++i) {
-    const int32_t slot = slot_of_point[i];
-    if (slot >= 0 && sums[slot].dropped) {
+    const int32_t slot = sums.voxel_of_point[i];
+    if (slot >= 0 && voxels[slot].dropped) {
       ++update.dropped_over_budget;
       continue;
     }
@@ -367,8 +412,10 @@ std::vector<int64_t> VoxelMap::keyframeIds() const {
 
 size_t VoxelMap::memoryBytes() const {
   // Hash nodes carry the key, the value and about two pointers of overhead.
-  const size_t voxel_bytes = voxels_.size() * (sizeof(Voxel) + sizeof(uint64_t) + 16) +
-                             voxels_.bucket_count() * sizeof(void*);
+  size_t voxel_bytes = 0;
+  for (const VoxelTable& table : shards_) {
+    voxel_bytes += table.size() * (sizeof(Voxel) + sizeof(uint64_t) + 16) + table.bucket_count() * sizeof(void*);
+  }
   const size_t point_bytes = stored_points_ * (sizeof(KeyframePoint) + sizeof(uint64_t));
   const size_t keyframe_bytes = keyframes_.size() * (sizeof(KeyframeContribution) + 64);
   return voxel_bytes + point_bytes + keyframe_bytes;
@@ -376,8 +423,10 @@ size_t VoxelMap::memoryBytes() const {
 
 PointCloud VoxelMap::exportCloud() const {
   std::vector<uint64_t> keys;
-  keys.reserve(voxels_.size());
-  for (const auto& entry : voxels_) keys.push_back(entry.first);
+  keys.reserve(voxelCount());
+  for (const VoxelTable& table : shards_) {
+    for (const auto& entry : table) keys.push_back(entry.first);
+  }
   std::sort(keys.begin(), keys.end());
 
   PointCloud cloud;
@@ -387,7 +436,7 @@ PointCloud VoxelMap::exportCloud() const {
   cloud.confidence.reserve(keys.size());
   cloud.counts.reserve(keys.size());
   for (uint64_t key : keys) {
-    const Voxel& voxel = voxels_.at(key);
+    const Voxel& voxel = shard(key).at(key);
     const double n = voxel.count;
     const Eigen::Vector3d offset(voxel.offset_sum[0], voxel.offset_sum[1], voxel.offset_sum[2]);
     Eigen::Vector3d position = voxelCentre(key) + offset / n;

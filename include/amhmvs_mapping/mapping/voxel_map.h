@@ -95,7 +95,7 @@ class VoxelMap {
   // the normals cancel out), the rounded mean colour, the mean confidence and
   // the number of points merged (PointCloud::counts).
   PointCloud exportCloud() const;
-  size_t voxelCount() const { return voxels_.size(); }
+  size_t voxelCount() const;
   size_t keyframeCount() const { return keyframes_.size(); }
   size_t storedPointCount() const { return stored_points_; }
   // Approximate heap bytes held (voxels, keyframe points, keys).
@@ -129,19 +129,33 @@ class VoxelMap {
     Eigen::Vector3d normal;
     uint64_t key;
   };
-  // One keyframe's points summed per voxel (first-appearance order), so that
-  // the map's hash table is touched once per voxel, not once per point.
+  // The voxels are split into shards by key hash, so that one keyframe's
+  // update runs on all cores: each shard is summed and updated by one thread,
+  // in point order (the result does not depend on the number of threads).
+  static constexpr int kShards = 16;
+  using VoxelTable = std::unordered_map<uint64_t, Voxel>;
+  static int shardOf(uint64_t key) { return static_cast<int>((key * 0x9E3779B97F4A7C15ull) >> 60); }
+  const VoxelTable& shard(uint64_t key) const { return shards_[shardOf(key)]; }
+
+  // One voxel's share of a keyframe, so that the map's hash table is touched
+  // once per voxel, not once per point.
   struct VoxelSums {
     uint64_t key = 0;
     Voxel sums;
-    bool dropped = false;  // over the voxel budget: not applied
+    uint32_t first_point = 0;  // index of its first point (budget drops go in point order)
+    bool dropped = false;      // over the voxel budget: not applied
   };
-  // Sums of the placed points inside the region; slot_of_point[i] is point
-  // i's entry (-1 outside the region).
-  void sumPerVoxel(const std::vector<PlacedPoint>& placed, const KeyframePoints& points,
-                   std::vector<VoxelSums>* sums, std::vector<int32_t>* slot_of_point) const;
-  // Adds (sign +1) or subtracts (-1) sums that are not dropped.
-  void apply(const std::vector<VoxelSums>& sums, double sign);
+  // A keyframe's points summed per voxel: shard by shard (shard_begin), each
+  // in order of first appearance; voxel_of_point[i] indexes `voxels` (-1:
+  // outside the region).
+  struct KeyframeSums {
+    std::vector<VoxelSums> voxels;
+    size_t shard_begin[kShards + 1] = {};
+    std::vector<int32_t> voxel_of_point;
+  };
+  void sumPerVoxel(const std::vector<PlacedPoint>& placed, const KeyframePoints& points, KeyframeSums* sums) const;
+  // Adds (sign +1) or subtracts (-1) the sums that are not dropped.
+  void apply(const KeyframeSums& sums, double sign);
 
   // World position/normal and voxel key of a point; false when non-finite or
   // out of index range.
@@ -155,7 +169,7 @@ class VoxelMap {
   Eigen::Vector3d voxelCentre(uint64_t key) const;
 
   VoxelMapOptions options_;
-  std::unordered_map<uint64_t, Voxel> voxels_;
+  VoxelTable shards_[kShards];
   std::unordered_map<int64_t, KeyframeContribution> keyframes_;
   std::map<uint64_t, int64_t> order_;  // sequence -> id, oldest first
   uint64_t next_sequence_ = 0;
