@@ -382,13 +382,7 @@ void MappingPipeline::account(const PipelineOutput& output) {
     stats_.gpu_memory_bytes = result.depth.gpu_memory_bytes;
   }
   stats_.last_total_ms = result.times.total_ms;
-  for (const FusedKeyframe& fused : result.fused) {
-    ++(fused.again ? stats_.keyframes_fused_again : stats_.keyframes_fused);
-    stats_.map_points_added += fused.map_update.added_points;
-    stats_.map_points_skipped_invalid += fused.map_update.skipped_invalid;
-    stats_.map_points_over_budget += fused.map_update.dropped_over_budget;
-    stats_.map_points_outside_region += fused.map_update.outside_region;
-  }
+  for (const FusedKeyframe& fused : result.fused) ++(fused.again ? stats_.keyframes_fused_again : stats_.keyframes_fused);
 }
 
 std::vector<PipelineOutput> MappingPipeline::step() {
@@ -430,14 +424,40 @@ std::vector<PipelineOutput> MappingPipeline::step() {
     late_work = run(Work::kRefinement, -1, [&](KeyframeResult* result) { return mapper_->refine(result); }, &outputs, 0);
   worked |= late_work;
 
+  // The map update of this step's fusion runs in the background while the
+  // next keyframe is estimated; with no keyframe waiting it is finished now,
+  // so that an idle pipeline's map and statistics are complete.
+  bool keyframe_waits;
+  {
+    std::lock_guard<std::mutex> queue_lock(queue_mutex_);
+    keyframe_waits = !queue_.empty();
+  }
+  if (!keyframe_waits) {
+    try {
+      mapper_->finishMapWork();
+    } catch (const std::exception& e) {
+      report(LogLevel::kError, "map", std::string("map update failed: ") + e.what());
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.dropped_processing_error;
+    }
+  }
+  const std::vector<MapUpdateRecord> map_updates = mapper_->takeMapUpdates();
+
   std::lock_guard<std::mutex> stats(stats_mutex_);
+  for (const MapUpdateRecord& record : map_updates) {
+    stats_.map_points_added += record.update.added_points;
+    stats_.map_points_skipped_invalid += record.update.skipped_invalid;
+    stats_.map_points_over_budget += record.update.dropped_over_budget;
+    stats_.map_points_outside_region += record.update.outside_region;
+    stats_.last_map_update_ms = record.milliseconds;
+  }
   stats_.stored_keyframes = mapper_->store().size();
   stats_.keyframes_evicted = mapper_->store().evictedCount();
   stats_.keyframes_waiting_for_fusion = mapper_->waitingForFusion().size();
   stats_.keyframes_evicted_before_fusion = mapper_->evictedBeforeFusion();
   stats_.keyframes_waiting_for_sources = mapper_->waitingForSources().size();
   stats_.keyframes_evicted_without_depth = mapper_->evictedWithoutDepth();
-  stats_.map_voxels = mapper_->map().voxelCount();
+  stats_.map_voxels = mapper_->mapVoxelCount();
   stats_.map_revision = mapper_->mapRevision();
   {
     std::lock_guard<std::mutex> queue_lock(queue_mutex_);

@@ -244,15 +244,64 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
     }
     start = Clock::now();
     if (!fused.points.empty()) {
-      fused.map_update = map_.addKeyframe(id, store_.keyframe(id).cameraToWorld(), fused.points);  // replaces
-      ++map_revision_;
-    } else if (map_.contains(id)) {
-      map_.removeKeyframe(id);  // the refined depth map confirms nothing of the old points
-      ++map_revision_;
+      addToMap(id, fused.points);  // replaces
+    } else {
+      finishMapWork();
+      if (map_.contains(id)) {
+        map_.removeKeyframe(id);  // the refined depth map confirms nothing of the old points
+        map_voxel_count_ = map_.voxelCount();
+        ++map_revision_;
+      }
     }
     result->times.map_ms += millisecondsSince(start);
     if (id == result->id) result->fused_now = true;
     result->fused.push_back(std::move(fused));
+  }
+}
+
+void OnlineMapper::addToMap(int64_t id, KeyframePoints points) {
+  finishMapWork();  // one update at a time, in order
+  const Eigen::Isometry3d pose = store_.keyframe(id).cameraToWorld();
+  const auto update = [this, id, pose, points = std::move(points)]() {
+    const Clock::time_point start = Clock::now();
+    MapUpdateRecord record;
+    record.id = id;
+    record.update = map_.addKeyframe(id, pose, points);
+    record.milliseconds = millisecondsSince(start);
+    return record;
+  };
+  ++map_revision_;
+  if (options_.map_in_background) {
+    map_work_ = std::async(std::launch::async, update);
+  } else {
+    finished_map_updates_.push_back(update());
+    map_voxel_count_ = map_.voxelCount();
+  }
+}
+
+void OnlineMapper::finishMapWork() const {
+  if (!map_work_.valid()) return;
+  MapUpdateRecord record = map_work_.get();  // rethrows what the update threw
+  finished_map_updates_.push_back(std::move(record));
+  map_voxel_count_ = map_.voxelCount();
+}
+
+const VoxelMap& OnlineMapper::map() const {
+  finishMapWork();
+  return map_;
+}
+
+std::vector<MapUpdateRecord> OnlineMapper::takeMapUpdates() {
+  std::vector<MapUpdateRecord> taken;
+  taken.swap(finished_map_updates_);
+  return taken;
+}
+
+OnlineMapper::~OnlineMapper() {
+  try {
+    finishMapWork();
+  } catch (...) {
+    // Nothing to report to at destruction; the map is discarded anyway.
   }
 }
 
@@ -288,8 +337,10 @@ bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_wor
   if (!problem.empty()) throw InputError("keyframe " + std::to_string(id) + ": " + problem);
   const bool stored = store_.contains(id);
   if (stored) store_.updatePose(id, camera_to_world);
+  finishMapWork();
   if (!map_.contains(id)) return stored;
   map_.updatePose(id, camera_to_world);
+  map_voxel_count_ = map_.voxelCount();
   ++map_revision_;
   return true;
 }
@@ -301,7 +352,14 @@ void OnlineMapper::reset() {
   waiting_for_sources_.clear();
   evicted_without_depth_ = 0;
   estimates_.clear();
+  try {
+    finishMapWork();
+  } catch (const std::exception&) {
+    // The map is emptied anyway.
+  }
+  finished_map_updates_.clear();
   map_ = VoxelMap(options_.map);
+  map_voxel_count_ = 0;
   ++map_revision_;
 }
 
@@ -310,6 +368,7 @@ void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
   if (!problems.empty()) throw InputError("online mapper options:\n" + problems);
   OnlineMapperOptions kept = options;
   kept.store = options_.store;
+  finishMapWork();
   if (options.map.leaf_size != options_.map.leaf_size) {
     // A new voxel size: rebuild the map from the stored keyframes' points.
     VoxelMapOptions map_options = options_.map;
@@ -320,6 +379,7 @@ void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
       rebuilt.addKeyframe(id, map_.pose(id), store_.entry(id).points);
     }
     map_ = std::move(rebuilt);
+    map_voxel_count_ = map_.voxelCount();
     ++map_revision_;
   }
   kept.map = map_.options();

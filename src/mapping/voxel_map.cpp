@@ -107,7 +107,9 @@ namespace {
 // update's time.
 class VoxelIndex {
  public:
-  explicit VoxelIndex(size_t expected) {
+  // The table lives in the caller's buffers (reused from update to update).
+  VoxelIndex(size_t expected, std::vector<uint64_t>* keys, std::vector<int32_t>* entries)
+      : keys_(*keys), entries_(*entries) {
     int bits = 4;
     while ((size_t{1} << bits) < 2 * expected) ++bits;
     keys_.assign(size_t{1} << bits, kOutsideRegion);  // never a key of a point in a voxel
@@ -133,8 +135,8 @@ class VoxelIndex {
   }
 
  private:
-  std::vector<uint64_t> keys_;
-  std::vector<int32_t> entries_;
+  std::vector<uint64_t>& keys_;
+  std::vector<int32_t>& entries_;
   size_t mask_ = 0;
   int shift_ = 60;
 };
@@ -142,18 +144,20 @@ class VoxelIndex {
 }  // namespace
 
 void VoxelMap::sumPerVoxel(const std::vector<PlacedPoint>& placed, const KeyframePoints& points,
-                           KeyframeSums* sums) const {
+                           KeyframeSums* sums) {
   const size_t n = placed.size();
   sums->voxel_of_point.assign(n, -1);
   // The points of each shard, in point order (a counting sort).
-  std::vector<uint8_t> shard_of_point(n);
+  std::vector<uint8_t>& shard_of_point = scratch_.shard_of_point;
+  shard_of_point.resize(n);
   size_t shard_start[kShards + 1] = {};
   for (size_t i = 0; i < n; ++i) {
     shard_of_point[i] = placed[i].key == kOutsideRegion ? kShards : shardOf(placed[i].key);
     if (shard_of_point[i] < kShards) ++shard_start[shard_of_point[i] + 1];
   }
   for (int shard = 0; shard < kShards; ++shard) shard_start[shard + 1] += shard_start[shard];
-  std::vector<uint32_t> points_by_shard(shard_start[kShards]);
+  std::vector<uint32_t>& points_by_shard = scratch_.points_by_shard;
+  points_by_shard.resize(shard_start[kShards]);
   {
     size_t next[kShards];
     std::copy(shard_start, shard_start + kShards, next);
@@ -161,11 +165,14 @@ void VoxelMap::sumPerVoxel(const std::vector<PlacedPoint>& placed, const Keyfram
       if (shard_of_point[i] < kShards) points_by_shard[next[shard_of_point[i]]++] = static_cast<uint32_t>(i);
     }
   }
-  std::vector<VoxelSums> per_shard[kShards];
+  std::vector<VoxelSums>* per_shard = scratch_.per_shard;
 #pragma omp parallel for schedule(dynamic) if (n > 20000)
   for (int shard = 0; shard < kShards; ++shard) {
     std::vector<VoxelSums>& out = per_shard[shard];
-    VoxelIndex index(shard_start[shard + 1] - shard_start[shard]);  // at most half full: probing ends
+    out.clear();
+    // At most half full: probing ends.
+    VoxelIndex index(shard_start[shard + 1] - shard_start[shard], &scratch_.index_keys[shard],
+                     &scratch_.index_entries[shard]);
     uint64_t last_key = kOutsideRegion;
     int32_t entry = -1;
     for (size_t j = shard_start[shard]; j < shard_start[shard + 1]; ++j) {
@@ -237,7 +244,8 @@ size_t VoxelMap::voxelCount() const {
 
 void VoxelMap::removeContribution(const KeyframeContribution& contribution) {
   const size_t n = contribution.points.size();
-  std::vector<PlacedPoint> placed(n);
+  std::vector<PlacedPoint>& placed = scratch_.removal_placed;
+  placed.resize(n);
 #pragma omp parallel for if (n > 20000)
   for (size_t i = 0; i < n; ++i) {
     // Recomputed exactly as when added; the stored key guards against any
@@ -246,7 +254,7 @@ void VoxelMap::removeContribution(const KeyframeContribution& contribution) {
     placed[i].key = contribution.keys[i];
   }
   for (uint64_t key : contribution.keys) points_outside_region_ -= key == kOutsideRegion;
-  KeyframeSums sums;
+  KeyframeSums& sums = scratch_.removal_sums;
   sumPerVoxel(placed, contribution.points, &sums);
   apply(sums, -1.0);
 }
@@ -268,8 +276,10 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
                                 const KeyframePoints& points) {
   VoxelMapUpdate update;
   const size_t n = points.size();
-  std::vector<PlacedPoint> all(n);
-  std::vector<uint8_t> valid(n);
+  std::vector<PlacedPoint>& all = scratch_.placed;
+  std::vector<uint8_t>& valid = scratch_.valid;
+  all.resize(n);
+  valid.resize(n);
 #pragma omp parallel for if (n > 20000)
   for (size_t i = 0; i < n; ++i) valid[i] = place(camera_to_world, points[i], &all[i]);
 
@@ -294,7 +304,7 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
     contribution.points.push_back(points[i]);
   }
   placed.resize(count);
-  KeyframeSums sums;
+  KeyframeSums& sums = scratch_.sums;
   sumPerVoxel(placed, contribution.points, &sums);
   std::vector<VoxelSums>& voxels = sums.voxels;
 

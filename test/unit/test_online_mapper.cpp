@@ -427,5 +427,59 @@ TEST(OnlineMapper, ResetAndVoxelSizeChange) {
   EXPECT_TRUE(mapper.waitingForFusion().empty());
 }
 
+// The map update in the background (the default) gives the same map, the
+// same update records in the same order and the same revisions as in the
+// foreground, including re-posing and reset while an update may be running.
+TEST(OnlineMapper, MapUpdatesInTheBackgroundGiveTheSameMapAsInTheForeground) {
+  struct Run {
+    PointCloud cloud;
+    std::vector<int64_t> record_ids;
+    size_t added = 0;
+    uint64_t revision = 0;
+    size_t voxels_seen = 0;  // mapVoxelCount() after finishMapWork()
+  };
+  const auto run = [](bool background) {
+    OnlineMapperOptions options = wallOptions();
+    options.map_in_background = background;
+    OnlineMapper mapper(options, wallDepth);
+    Run out;
+    for (int i = 0; i < 8; ++i) {
+      mapper.process(keyframeAt(i, 0.3 * i));
+      if (i == 5) {  // loop closure while the last update may still run
+        Eigen::Isometry3d pose = mapper.store().keyframe(3).cameraToWorld();
+        pose.translation().y() += 0.01;
+        mapper.updatePose(3, pose);
+      }
+    }
+    mapper.finishMapWork();
+    out.voxels_seen = mapper.mapVoxelCount();
+    for (const MapUpdateRecord& record : mapper.takeMapUpdates()) {
+      out.record_ids.push_back(record.id);
+      out.added += record.update.added_points;
+    }
+    out.cloud = mapper.map().exportCloud();
+    out.revision = mapper.mapRevision();
+    return out;
+  };
+  const Run foreground = run(false), background = run(true);
+  ASSERT_GT(foreground.cloud.size(), 100u);
+  EXPECT_EQ(background.record_ids, foreground.record_ids);
+  EXPECT_EQ(background.added, foreground.added);
+  EXPECT_EQ(background.revision, foreground.revision);
+  EXPECT_EQ(background.voxels_seen, foreground.cloud.size());
+  ASSERT_EQ(background.cloud.size(), foreground.cloud.size());
+  EXPECT_EQ(background.cloud.points, foreground.cloud.points);  // bit for bit
+  EXPECT_EQ(background.cloud.counts, foreground.cloud.counts);
+}
+
+TEST(OnlineMapper, ResetWhileAMapUpdateRunsEmptiesTheMap) {
+  OnlineMapper mapper(wallOptions(), wallDepth);
+  for (int i = 0; i < 5; ++i) mapper.process(keyframeAt(i, 0.3 * i));
+  mapper.reset();  // the last fusion's update may still be running
+  EXPECT_EQ(mapper.map().voxelCount(), 0u);
+  EXPECT_EQ(mapper.mapVoxelCount(), 0u);
+  EXPECT_TRUE(mapper.takeMapUpdates().empty());
+}
+
 }  // namespace
 }  // namespace amhmvs

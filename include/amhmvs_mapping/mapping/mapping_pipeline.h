@@ -112,6 +112,7 @@ struct PipelineStats {
   std::string backend = "not started"; // "cuda", "cpu", "cuda failed, now cpu"
   double last_estimate_ms = 0;
   double last_total_ms = 0;
+  double last_map_update_ms = 0;       // the last voxel-map update (in the background when so configured)
   uint64_t gpu_memory_bytes = 0;       // device memory of the last estimate (CUDA)
 
   uint64_t droppedTotal() const {

@@ -46,6 +46,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <future>
 #include <map>
 #include <sstream>
 #include <string>
@@ -77,6 +78,11 @@ struct OnlineMapperOptions {
   FusionOptions fusion = FusionOptions::reprojection();
   VoxelMapOptions map;
   RefinementOptions refinement;
+  // The voxel-map update of a fused keyframe runs on a worker thread while
+  // the caller goes on (with a GPU estimator: while the next keyframe is
+  // estimated, when the CPU would otherwise wait); every later use of the
+  // map waits for it first, so what callers see does not change.
+  bool map_in_background = true;
 
   // Empty when valid; otherwise one line per problem, prefixed by the group.
   std::string validate() const;
@@ -104,7 +110,13 @@ struct FusedKeyframe {
   std::vector<int64_t> consistency_ids;  // the other depth maps it was checked against
   bool again = false;                   // fused before (refined), with or without points: they are replaced
   KeyframePoints points;                // fused points, camera frame
-  VoxelMapUpdate map_update;
+};
+
+// One finished update of the voxel map (OnlineMapper::takeMapUpdates).
+struct MapUpdateRecord {
+  int64_t id = 0;          // the keyframe added (or replaced)
+  VoxelMapUpdate update;
+  double milliseconds = 0;  // the update itself (on the worker thread when in the background)
 };
 
 // Wall-clock milliseconds of the stages of one result (0 where a stage did
@@ -117,7 +129,7 @@ struct StageTimes {
   double estimate_ms = 0;      // the estimator, wall clock (its own time: DepthMap::milliseconds)
   double store_ms = 0;         // copies into the keyframe store (keyframe, depth map, fused points)
   double fusion_ms = 0;        // consistency views and checks of the keyframes fused by this result
-  double map_ms = 0;           // voxel map updates
+  double map_ms = 0;           // voxel map updates, or waiting for the one in the background
   double total_ms = 0;         // the whole call (without queue_wait_ms)
 };
 
@@ -147,6 +159,9 @@ class OnlineMapper {
   // Throws InputError when the options are invalid or estimate is empty.
   // Without a fuse function the mapper fuses with fuseDepthMaps (CPU).
   OnlineMapper(const OnlineMapperOptions& options, EstimateFunction estimate, FuseFunction fuse = FuseFunction());
+  ~OnlineMapper();  // waits for a map update in the background
+  OnlineMapper(const OnlineMapper&) = delete;
+  OnlineMapper& operator=(const OnlineMapper&) = delete;
 
   // Runs steps 1-6 for a keyframe. Throws InputError for an invalid keyframe
   // (nothing changes); an exception of the estimate function propagates after
@@ -192,7 +207,15 @@ class OnlineMapper {
   void setOptions(const OnlineMapperOptions& options);
 
   const KeyframeStore& store() const { return store_; }
-  const VoxelMap& map() const { return map_; }
+  // The map, after any update in the background finished.
+  const VoxelMap& map() const;
+  // Voxels after the last finished map update (does not wait).
+  size_t mapVoxelCount() const { return map_voxel_count_; }
+  // Waits for a map update in the background (an exception it threw is
+  // thrown here).
+  void finishMapWork() const;
+  // The map updates finished since the last call (or reset), in order.
+  std::vector<MapUpdateRecord> takeMapUpdates();
   const OnlineMapperOptions& options() const { return options_; }
   // Incremented by every change of the map (add, re-pose, reset).
   uint64_t mapRevision() const { return map_revision_; }
@@ -221,11 +244,18 @@ class OnlineMapper {
   // Records evictions in the result; drops evicted waiting keyframes.
   void noteEvicted(const std::vector<int64_t>& evicted, KeyframeResult* result);
 
+  // Adds fused points to the map, in the background when so configured.
+  void addToMap(int64_t id, KeyframePoints points);
+
   OnlineMapperOptions options_;
   EstimateFunction estimate_;
   FuseFunction fuse_;
   KeyframeStore store_;
   VoxelMap map_;
+  // The map update in the background (at most one) and what finished.
+  mutable std::future<MapUpdateRecord> map_work_;
+  mutable std::vector<MapUpdateRecord> finished_map_updates_;
+  mutable size_t map_voxel_count_ = 0;
   uint64_t map_revision_ = 0;
   std::vector<int64_t> waiting_;  // estimated, not fused; oldest first
   size_t evicted_before_fusion_ = 0;

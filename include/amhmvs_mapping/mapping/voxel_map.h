@@ -153,7 +153,21 @@ class VoxelMap {
     size_t shard_begin[kShards + 1] = {};
     std::vector<int32_t> voxel_of_point;
   };
-  void sumPerVoxel(const std::vector<PlacedPoint>& placed, const KeyframePoints& points, KeyframeSums* sums) const;
+  void sumPerVoxel(const std::vector<PlacedPoint>& placed, const KeyframePoints& points, KeyframeSums* sums);
+  // Work buffers of one update, kept from update to update: on the GPU
+  // machine, touching fresh memory (a page fault per 4 KiB, contended across
+  // threads) took most of an update's time.
+  // insert() evicts (removes) keyframes while its own placed points and sums
+  // are in use: removal has its own.
+  struct Scratch {
+    std::vector<PlacedPoint> placed, removal_placed;
+    KeyframeSums sums, removal_sums;
+    std::vector<uint8_t> valid, shard_of_point;  // shard_of_point onwards: within sumPerVoxel only
+    std::vector<uint32_t> points_by_shard;
+    std::vector<VoxelSums> per_shard[kShards];
+    std::vector<uint64_t> index_keys[kShards];
+    std::vector<int32_t> index_entries[kShards];
+  };
   // Adds (sign +1) or subtracts (-1) the sums that are not dropped.
   void apply(const KeyframeSums& sums, double sign);
 
@@ -170,6 +184,7 @@ class VoxelMap {
 
   VoxelMapOptions options_;
   VoxelTable shards_[kShards];
+  Scratch scratch_;
   std::unordered_map<int64_t, KeyframeContribution> keyframes_;
   std::map<uint64_t, int64_t> order_;  // sequence -> id, oldest first
   uint64_t next_sequence_ = 0;
