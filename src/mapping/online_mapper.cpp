@@ -328,8 +328,8 @@ KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& view_i
   for (const FusionView& view : views) reference.source_ids.push_back(view.id);
   views.push_back(std::move(reference));
   // min_consistent_views as configured: never fewer than asked for.
-  const FusionResult fused = fuse_(views, options_.fusion);
-  return fused.views.back().points;
+  FusionResult fused = fuse_(views, options_.fusion);
+  return std::move(fused.views.back().points);
 }
 
 bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world) {
