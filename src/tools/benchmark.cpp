@@ -10,6 +10,7 @@
 //                         [--only SCENE[,SCENE...]]  (fountain_x0.25 ... fountain_x1,
 //                                           synthetic, scaling, cpu, fusion, pipeline, replay)
 //                         [--replay N]     keyframes of the memory replay (10000)
+//                         [--map-foreground] the replay updates the voxel map in its own thread
 //
 // Online pipeline tables (MappingPipeline, GPU when usable):
 //   fusion:   fuseDepthMaps (CPU, OpenMP, all cores) of a 640x480 keyframe
@@ -305,7 +306,7 @@ std::string pipelineTable(int keyframe_count) {
 // Memory over a long replay: `count` keyframes of 160x120 through one
 // pipeline (a rendered loop of 100 poses, shifted 1 mm per lap so that no
 // two keyframes share a centre).
-std::string replayTable(int count) {
+std::string replayTable(int count, bool map_in_background) {
   std::ostringstream out;
   out << "\n## Memory over a long replay: " << count << " keyframes of 160x120, 4 sources\n\n"
       << "| keyframes | host RSS MiB | device used MiB (cudaMemGetInfo) | estimator's device MiB (pool + work) | "
@@ -313,6 +314,7 @@ std::string replayTable(int count) {
   const int lap = 100;
   const std::vector<Keyframe> loop = roomKeyframes(lap, 160, 120, 2);
   PipelineOptions options = pipelineOptions(4);
+  options.mapper.map_in_background = map_in_background;
   options.mapper.store.max_keyframes = 50;
   MappingPipeline pipeline(options);
   const int interval = std::max(1, count / 10);
@@ -378,6 +380,7 @@ int main(int argc, char** argv) {
   using namespace amhmvs;
   std::string data, out_path = "benchmark.md";
   int runs = 5, cpu_threads = 2;
+  bool map_foreground = false;  // replay: the voxel-map update in the caller's thread
   bool quick = false;
   int replay_count = 10000;
   std::string only;
@@ -392,6 +395,7 @@ int main(int argc, char** argv) {
     else if (a == "--cpu-threads" && i + 1 < argc) cpu_threads = std::max(1, std::atoi(argv[++i]));
     else if (a == "--quick") quick = true;
     else if (a == "--replay" && i + 1 < argc) replay_count = std::max(1, std::atoi(argv[++i]));
+    else if (a == "--map-foreground") map_foreground = true;
     else data = a;
   }
   // --only A,B,...: the named sections only.
@@ -447,7 +451,7 @@ int main(int argc, char** argv) {
       save();
       std::fprintf(stderr, "pipeline done\n");
     }
-    if (only.empty() ? !quick : wants("replay")) online += replayTable(replay_count);
+    if (only.empty() ? !quick : wants("replay")) online += replayTable(replay_count, !map_foreground);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "amhmvs_benchmark: %s\n", e.what());
     return 1;
