@@ -115,6 +115,11 @@ amhmvs::OnlineMapperOptions MappingConfig::defaultMapperOptions() {
   return options;
 }
 
+int effectiveMaxImageSize(int configured, amhmvs::Backend backend) {
+  if (configured != -1) return configured;
+  return backend == amhmvs::Backend::kCpu ? kCpuAutoMaxImageSize : 0;
+}
+
 MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors) {
   MappingConfig c;
   const MappingConfig defaults;
@@ -163,8 +168,8 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
     err << "backend: " << e.what() << "; using auto\n";
     c.backend = defaults.backend;
   }
-  require(c.max_image_size == 0 || c.max_image_size >= 16,
-          "max_image_size must be 0 (off) or >= 16", c.max_image_size, defaults.max_image_size);
+  require(c.max_image_size == -1 || c.max_image_size == 0 || c.max_image_size >= 16,
+          "max_image_size must be -1 (auto), 0 (full size) or >= 16", c.max_image_size, defaults.max_image_size);
   require(c.map_publish_period > 0, "map_publish_period must be > 0", c.map_publish_period,
           defaults.map_publish_period);
   require(c.diagnostics_period > 0, "diagnostics_period must be > 0", c.diagnostics_period,
