@@ -1,7 +1,8 @@
 // Scene depth for source selection from the data (scene_depth.h): depth maps
 // of the keyframe itself and of other keyframes, and the bootstrap of the
 // first pair by patches matched along epipolar lines
-// (epipolar_depth_search.h), on a textured wall rendered exactly.
+// (epipolar_depth_search.h), which also gives the first pair's depth range
+// (depth_range.h rule 4); on a textured wall rendered exactly.
 #include "amhmvs_mapping/mapping/scene_depth.h"
 
 #include <gtest/gtest.h>
@@ -11,6 +12,7 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/core/median.h"
+#include "amhmvs_mapping/mapping/depth_range.h"
 #include "amhmvs_mapping/mapping/source_selection.h"
 #include "mapping_test_helpers.h"
 
@@ -148,6 +150,25 @@ TEST(SceneDepth, FirstPairFarAwayGetsSourcesWithoutTuning) {
   const SourceSelection matched = selectSources(store, 1, options);
   EXPECT_EQ(matched.source_ids, std::vector<int64_t>{0}) << matched.reason;
   EXPECT_NEAR(matched.scene_depth.depth, wall_z, 0.03 * wall_z) << matched.scene_depth.source;
+}
+
+// The temple's case: an object 0.57 m away, far inside the default range
+// [0.3, 30] m; the first pair's range comes from the matched patches.
+TEST(SceneDepth, FirstPairDepthRangeFromMatchedPatches) {
+  const double wall_z = 0.57;
+  KeyframeStore store;
+  store.add(wallKeyframe(0, poseAt({0, 0, 0}), wall_z));
+  store.add(wallKeyframe(1, poseAt({0.05, 0, 0}), wall_z));
+  DepthRangeOptions options;
+  const DepthRangeEstimate matched = estimateDepthRange(store, 1, {0}, options);
+  EXPECT_EQ(matched.source, DepthRangeSource::kMatchedPatches) << matched.reason;
+  EXPECT_LT(matched.min, wall_z);
+  EXPECT_GT(matched.max, wall_z);
+  EXPECT_GT(matched.min, 0.8 * 0.9 * wall_z) << "percentiles widened by 0.8 / 1.2 only";
+  EXPECT_LT(matched.max, 1.2 * 1.1 * wall_z);
+
+  options.match_when_unknown = false;
+  EXPECT_EQ(estimateDepthRange(store, 1, {0}, options).source, DepthRangeSource::kDefault);
 }
 
 }  // namespace
