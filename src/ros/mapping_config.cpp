@@ -134,6 +134,7 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
   read(pnh, "keyframe_min_rotation_deg", &c.keyframe_min_rotation_deg);
   read(pnh, "backend", &c.backend);
   read(pnh, "max_image_size", &c.max_image_size);
+  read(pnh, "publish_depth_mm", &c.publish_depth_mm);
   read(pnh, "map_publish_period", &c.map_publish_period);
   read(pnh, "diagnostics_period", &c.diagnostics_period);
   read(pnh, "silence_timeout", &c.silence_timeout);

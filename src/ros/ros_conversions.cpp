@@ -150,6 +150,24 @@ sensor_msgs::ImagePtr depthImageMsg(const amhmvs::ImageF& depth, const std_msgs:
   return msg;
 }
 
+sensor_msgs::ImagePtr depthImageMillimetresMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header) {
+  auto msg = boost::make_shared<sensor_msgs::Image>();
+  msg->header = header;
+  msg->width = depth.width;
+  msg->height = depth.height;
+  msg->encoding = enc::TYPE_16UC1;
+  msg->is_bigendian = false;
+  msg->step = depth.width * sizeof(uint16_t);
+  msg->data.resize(static_cast<size_t>(msg->step) * depth.height);
+  uint16_t* out = reinterpret_cast<uint16_t*>(msg->data.data());
+  for (size_t i = 0; i < depth.pixelCount(); ++i) {
+    const double millimetres = std::round(1000.0 * depth.data[i * depth.channels]);
+    const bool fits = std::isfinite(millimetres) && millimetres >= 1 && millimetres <= 65535;
+    out[i] = fits ? static_cast<uint16_t>(millimetres) : 0;
+  }
+  return msg;
+}
+
 sensor_msgs::CameraInfoPtr cameraInfoMsg(const amhmvs::PinholeCamera& camera, const std_msgs::Header& header) {
   auto msg = boost::make_shared<sensor_msgs::CameraInfo>();
   msg->header = header;

@@ -39,6 +39,8 @@ struct MappingConfig {
   amhmvs::OnlineMapperOptions mapper = defaultMapperOptions();
 
   // --- Output ---
+  // Also publish depth_mm/image (16UC1 millimetres, 0 invalid) + camera_info.
+  bool publish_depth_mm = false;
   double map_publish_period = 2.0;   // at most one map publication per this many seconds (on change)
   double diagnostics_period = 1.0;   // seconds
   // Diagnostics go WARN (and the log says which topics) when an input topic
