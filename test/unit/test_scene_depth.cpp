@@ -59,6 +59,14 @@ Keyframe wallKeyframe(int64_t id, const Eigen::Isometry3d& camera_to_world, doub
   return keyframe;
 }
 
+// A store of two wall keyframes: 0 at the origin, 1 moved by `baseline` along x.
+KeyframeStore wallPair(double wall_z, double baseline) {
+  KeyframeStore store;
+  store.add(wallKeyframe(0, poseAt({0, 0, 0}), wall_z));
+  store.add(wallKeyframe(1, poseAt({baseline, 0, 0}), wall_z));
+  return store;
+}
+
 DepthMap constantDepth(const PinholeCamera& camera, float depth) {
   DepthMap map;
   map.depth = ImageF(camera.width, camera.height, 1, depth);
@@ -94,9 +102,7 @@ TEST(SceneDepth, NothingMatchesWithoutTextureAndBadImagesThrow) {
 
 TEST(SceneDepth, FromOwnThenOtherDepthMapsThenMatchingThenDefault) {
   const double wall_z = 9.0;
-  KeyframeStore store;
-  store.add(wallKeyframe(0, poseAt({0, 0, 0}), wall_z));
-  store.add(wallKeyframe(1, poseAt({0.6, 0, 0}), wall_z));
+  KeyframeStore store = wallPair(wall_z, 0.6);
   SceneDepthOptions options;
 
   // No depth anywhere yet: the bootstrap matches keyframe 1 against 0.
@@ -137,9 +143,7 @@ TEST(SceneDepth, GivenRangeComesBeforeDepthMaps) {
 // the matched scene depth selects the pair.
 TEST(SceneDepth, FirstPairFarAwayGetsSourcesWithoutTuning) {
   const double wall_z = 12.0;
-  KeyframeStore store;
-  store.add(wallKeyframe(0, poseAt({0, 0, 0}), wall_z));
-  store.add(wallKeyframe(1, poseAt({2.0, 0, 0}), wall_z));
+  KeyframeStore store = wallPair(wall_z, 2.0);
   SourceSelectionOptions options;
   options.match_when_unknown = false;
   const SourceSelection fixed = selectSources(store, 1, options);
@@ -156,9 +160,7 @@ TEST(SceneDepth, FirstPairFarAwayGetsSourcesWithoutTuning) {
 // [0.3, 30] m; the first pair's range comes from the matched patches.
 TEST(SceneDepth, FirstPairDepthRangeFromMatchedPatches) {
   const double wall_z = 0.57;
-  KeyframeStore store;
-  store.add(wallKeyframe(0, poseAt({0, 0, 0}), wall_z));
-  store.add(wallKeyframe(1, poseAt({0.05, 0, 0}), wall_z));
+  KeyframeStore store = wallPair(wall_z, 0.05);
   DepthRangeOptions options;
   const DepthRangeEstimate matched = estimateDepthRange(store, 1, {0}, options);
   EXPECT_EQ(matched.source, DepthRangeSource::kMatchedPatches) << matched.reason;
