@@ -3,7 +3,6 @@
 #include <cmath>
 #include <sstream>
 
-#include "amhmvs_mapping/mapping/real_pose_sources.h"
 #include "tool_options.h"
 
 namespace amhmvs {
@@ -24,7 +23,6 @@ Eigen::Vector3d parseVector(const std::string& option, const std::string& text) 
 
 MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) {
   MapToolOptions options;
-  options.pipeline.mapper.sources = realPoseSourceSelection();  // recorded sequences have real poses
   PipelineOptions& pipeline = options.pipeline;
   FrameSelection& frames = options.frames;
   PosedSequenceOptions& sequence = options.sequence;
@@ -127,8 +125,8 @@ std::string mapToolUsage() {
          "  --num_sources N      source views per keyframe, at most (default 8)\n"
          "  --scene_depth M      last-resort scene depth for source selection, when neither the\n"
          "                       data (range, depth maps, matched patches) gives one (default 3)\n"
-         "  --min_triangulation_angle_deg D --preferred_angle_deg D  source ranking for real\n"
-         "                       poses (default 2, 8; mapping/real_pose_sources.h)\n"
+         "  --min_triangulation_angle_deg D --preferred_angle_deg D  source ranking (default\n"
+         "                       1, 5: MVSNet's; 2, 8 suit noisy real poses better, see README)\n"
          "  --depth_min M --depth_max M  depth range of every keyframe (default: from the\n"
          "                       layout (MVSNet, COLMAP), else the neighbours' depth maps)\n"
          "  --voxel_size M       map voxel edge (default 0.02)\n"
