@@ -68,6 +68,7 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "sources/max_axis_angle_deg", &o->sources.max_axis_angle_deg);
   read(nh, "sources/min_overlap", &o->sources.min_overlap);
   read(nh, "sources/preferred_angle_deg", &o->sources.preferred_angle_deg);
+  read(nh, "sources/match_when_unknown", &o->sources.match_when_unknown);
   read(nh, "sources/default_scene_depth", &o->sources.default_scene_depth);
 
   read(nh, "depth_range/use_given_range", &o->depth_range.use_given_range);
@@ -75,6 +76,7 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "depth_range/far_factor", &o->depth_range.far_factor);
   read(nh, "depth_range/min_sparse_points", &o->depth_range.min_sparse_points);
   read(nh, "depth_range/min_depth_samples", &o->depth_range.min_depth_samples);
+  read(nh, "depth_range/match_when_unknown", &o->depth_range.match_when_unknown);
   read(nh, "depth_range/default_min", &o->depth_range.default_min);
   read(nh, "depth_range/default_max", &o->depth_range.default_max);
 
