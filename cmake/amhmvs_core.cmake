@@ -38,6 +38,7 @@ set(AMHMVS_CORE_SOURCES
   src/io/pfm.cpp
   src/io/image_io.cpp
   src/io/colormap.cpp
+  src/io/depth_preview.cpp
   src/io/background_writer.cpp
   src/io/mvsnet_folder.cpp
   src/io/colmap_model.cpp

@@ -177,7 +177,9 @@ class DemoMonitor:
             # better sources) replaces the earlier one of that keyframe.
             refined = stamp in self.evaluated
             self.refined += refined
-            index = self.evaluated[stamp]["index"] if refined else len(self.evaluated) + 1
+            # The nodelet's keyframe id: it numbers keyframes from 0 in arrival
+            # order, and every frame of the demo's sequence is a keyframe.
+            index = sorted(self.ground_truth).index(stamp)
             self.evaluated[stamp] = {"stamp": seconds(stamp), "within": within, "total": total, "wall_ms": wall_ms,
                                      "index": index}
             colour_depth_pair(estimate, truth, os.path.join(self.output_dir, "depth", f"{index:04d}.png"))

@@ -31,18 +31,36 @@ def read_ply(path):
     return xyz, rgb
 
 
+# The colour map of every depth picture of the project (src/io/depth_preview.cpp):
+# viridis, black where there is no depth, a scale bar below labelled in metres.
+SCALE_BAR_ROWS = 22
+
+
 def colour_depth(depth, near, far):
-    """BGR turbo colour map of depth over [near, far], black where NaN."""
+    """BGR viridis colour map of depth over [near, far], black where NaN."""
     scaled = np.clip((np.nan_to_num(depth, nan=far) - near) / max(far - near, 1e-6), 0, 1)
-    image = cv2.applyColorMap((255 * scaled).astype(np.uint8), cv2.COLORMAP_TURBO)
+    image = cv2.applyColorMap((255 * scaled).astype(np.uint8), cv2.COLORMAP_VIRIDIS)
     image[~np.isfinite(depth)] = 0
     return image
 
 
+def scale_bar(width, near, far):
+    """A bar from near (left) to far (right) with both ends labelled."""
+    bar = np.zeros((SCALE_BAR_ROWS, width, 3), np.uint8)
+    bar[2:10] = colour_depth(np.linspace(near, far, width)[None, :], near, far)
+    for text, right in ((f"{near:.2f} m", False), (f"{far:.2f} m", True)):
+        (w, _), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, 0.35, 1)
+        cv2.putText(bar, text, (width - w - 1 if right else 1, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.35,
+                    (255, 255, 255), 1, cv2.LINE_AA)
+    return bar
+
+
 def colour_depth_pair(estimate, truth, path):
-    """Writes estimate | ground truth side by side on the ground truth's depth range."""
+    """Writes estimate | ground truth side by side on the ground truth's depth
+    range, with the scale bar below."""
     finite = truth[np.isfinite(truth)]
     near, far = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
     gap = np.zeros((estimate.shape[0], 4, 3), np.uint8)
-    if not cv2.imwrite(path, np.hstack([colour_depth(estimate, near, far), gap, colour_depth(truth, near, far)])):
+    pair = np.hstack([colour_depth(estimate, near, far), gap, colour_depth(truth, near, far)])
+    if not cv2.imwrite(path, np.vstack([pair, scale_bar(pair.shape[1], near, far)])):
         raise IOError(f"{path}: cannot write")

@@ -4,7 +4,10 @@
 # input tests; rviz, Xvfb and ImageMagick for the demo's headless rviz
 # picture; clang with its sanitizer/libFuzzer runtimes, OpenMP and
 # llvm-symbolizer for the core suites and fuzzers of the test command).
-# Installs only what is missing; needs root (or sudo).
+# Installs only what is missing; needs root (or sudo). apt's output goes to
+# AMHMVS_INSTALL_LOG (default /tmp/amhmvs_install_dependencies.log); the
+# console gets one line (what is installed, how long, where the log is), and
+# the log's tail if apt fails.
 set -euo pipefail
 
 packages=(
@@ -14,6 +17,7 @@ packages=(
   libnodeletlib-dev libnodeletlib-tools libnodelet-dev python3-nodelet
   libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev python3-tf2-ros
   libcv-bridge-dev libimage-transport-dev libimage-geometry-dev image-transport-tools
+  libdepth-image-proc-dev
   libpcl-ros-dev libpcl-dev
   python3-rostest rosbash librosbag-dev python3-rosbag python3-roslaunch
   libdiagnostic-updater-dev python3-diagnostic-updater
@@ -40,6 +44,13 @@ if [ ${#missing[@]} -eq 0 ]; then
 fi
 sudo=""
 [ "$(id -u)" = 0 ] || sudo=sudo
-echo "install_dependencies: installing ${#missing[@]} packages: ${missing[*]}"
-$sudo apt-get update -qq
-DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+log=${AMHMVS_INSTALL_LOG:-/tmp/amhmvs_install_dependencies.log}
+start=$(date +%s)
+echo "install_dependencies: installing ${#missing[@]} packages: ${missing[*]}" > "$log"
+if ! { $sudo apt-get update -qq &&
+       DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"; } >> "$log" 2>&1; then
+  tail -n 20 "$log" >&2
+  echo "install_dependencies: apt-get failed installing ${#missing[@]} packages (full log: $log)" >&2
+  exit 1
+fi
+echo "install_dependencies: installed ${#missing[@]} missing packages in $(( $(date +%s) - start )) s (apt log: $log)"

@@ -17,13 +17,34 @@ data=${AMHMVS_DATA_DIR:-$here/../shared/data}
 AMHMVS_MAKE_TARGETS="all tests" "$here/scripts/build.sh"
 
 export AMHMVS_DATA_DIR=$data
+
+# with_progress DESCRIPTION LOG COMMAND...: runs COMMAND with its output in
+# LOG and prints a line every 30 s (seconds so far, the log's last line), so
+# that a step of minutes does not look hung; returns COMMAND's exit code.
+with_progress() {
+  local description=$1 log=$2 start pid seconds
+  shift 2
+  start=$(date +%s)
+  "$@" > "$log" 2>&1 &
+  pid=$!
+  while kill -0 "$pid" 2>/dev/null; do
+    sleep 1
+    seconds=$(( $(date +%s) - start ))
+    if [ $(( seconds % 30 )) -eq 0 ] && kill -0 "$pid" 2>/dev/null; then
+      echo "  $description: ${seconds} s, $(tail -n 1 "$log" | cut -c1-120)"
+    fi
+  done
+  wait "$pid"
+}
+
 if [ -d "$data/mvsnet/fountain_x0.25/images" ] && command -v colmap >/dev/null; then
   workspace=$build/colmap_fountain/dense
   if [ ! -f "$workspace/sparse/cameras.bin" ]; then
     echo "== making a COLMAP workspace from the fountain images (CPU SIFT) =="
     rm -rf "$build/colmap_fountain"
-    "$here/scripts/make_colmap_model.sh" "$data/mvsnet/fountain_x0.25/images" "$build/colmap_fountain" \
-      > "$build/colmap_fountain.log" 2>&1 || { tail -20 "$build/colmap_fountain.log"; exit 1; }
+    with_progress "COLMAP" "$build/colmap_fountain.log" \
+      "$here/scripts/make_colmap_model.sh" "$data/mvsnet/fountain_x0.25/images" "$build/colmap_fountain" ||
+      { tail -20 "$build/colmap_fountain.log"; exit 1; }
   fi
   export AMHMVS_COLMAP_WORKSPACE=$workspace
 fi
@@ -33,8 +54,10 @@ if [ -d "$data/mvsnet/fountain_x0.25" ]; then
   fountain_depth=$build/fountain_depth_384
   if [ ! -f "$fountain_depth/00000010/depth.pfm" ]; then
     echo "== fountain depth maps at 384 px for the fusion test =="
-    "$build/devel/lib/amhmvs_mapping/amhmvs_depth" "$data/mvsnet/fountain_x0.25" "$fountain_depth" \
-      --max_image_size 384 --backend cpu --quiet
+    with_progress "fountain depth maps" "$build/fountain_depth_384.log" \
+      "$build/devel/lib/amhmvs_mapping/amhmvs_depth" "$data/mvsnet/fountain_x0.25" "$fountain_depth" \
+      --max_image_size 384 --backend cpu ||
+      { tail -20 "$build/fountain_depth_384.log"; exit 1; }
   fi
   export AMHMVS_FOUNTAIN_DEPTH_DIR=$fountain_depth
 fi
@@ -109,7 +132,9 @@ grep -E "executions|FINDING" "$core_results/fuzzers.log" || true
 # (odometry input, the object's box as the map's region of interest: every
 # map point in the box), the ICL bag (plumbing), keyframe mode with the
 # services and a loop closure, a missing and a late transform, silent input topics, bad
-# and hostile input.
+# and hostile input; the fountain and temple bags again on the shipped
+# config/mapping.yaml (nothing tuned: a depth image for every keyframe, nothing
+# dropped), and depth_image_proc/point_cloud_xyz + the 16UC1 output on ours.
 echo "== ROS tests (message conversions; rostest) =="
 ros_results=$build/test_results/ros
 rm -rf "$ros_results"
@@ -137,7 +162,10 @@ if [ -f "$bag" ]; then
              "missing_tf missing_tf.test" \
              "silent_inputs silent_inputs.test" \
              "hostile_input hostile_input.test" \
-             "bad_input bad_input.test"; do
+             "bad_input bad_input.test" \
+             "fountain_shipped_defaults replay_fountain.test defaults:=true" \
+             "temple_shipped_defaults replay_map.test scene:=temple defaults:=true" \
+             "depth_interop depth_interop.test"; do
     read -r name file args <<< "$run"
     dir=$ros_results/$name
     mkdir -p "$dir"
@@ -148,7 +176,7 @@ if [ -f "$bag" ]; then
   done
 else
   echo "rostest: skipped, no bag at $bag"
-  ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped)
+  ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped)
 fi
 
 # The package the way a ROS user builds it: in a fresh catkin workspace

@@ -66,6 +66,7 @@ const char* depthRangeSourceName(DepthRangeSource source) {
     case DepthRangeSource::kGiven: return "given";
     case DepthRangeSource::kSparsePoints: return "sparse points";
     case DepthRangeSource::kNeighbourDepthMaps: return "neighbour depth maps";
+    case DepthRangeSource::kMatchedPatches: return "matched patches";
     case DepthRangeSource::kDefault: return "default";
   }
   return "?";
@@ -86,6 +87,9 @@ std::string DepthRangeOptions::validate() const {
   if (min_sparse_points < 1) why << "min_sparse_points must be positive\n";
   if (min_depth_samples < 1) why << "min_depth_samples must be positive\n";
   if (depth_map_stride < 1) why << "depth_map_stride must be positive\n";
+  if (min_matched_points < 1) why << "min_matched_points must be positive\n";
+  std::istringstream matching_lines(matching.validate());
+  for (std::string line; std::getline(matching_lines, line);) why << "matching: " << line << "\n";
   if (!(std::isfinite(default_min) && std::isfinite(default_max) && default_min > 0 &&
         default_min < default_max)) {
     why << "default range must be finite with 0 < min < max (got " << default_min << ", "
@@ -206,7 +210,30 @@ DepthRangeEstimate estimateDepthRange(const KeyframeStore& store, int64_t id,
     if (stored.depth.depth.empty()) continue;
     neighbours.push_back({neighbour_id, &stored.keyframe.camera, &stored.depth.depth});
   }
-  return estimateDepthRange(keyframe, neighbours, options);
+  DepthRangeEstimate estimate = estimateDepthRange(keyframe, neighbours, options);
+  if (estimate.source != DepthRangeSource::kDefault || !options.match_when_unknown) return estimate;
+
+  // 4. Nothing measured yet: patches matched in the neighbours' images.
+  std::vector<double> depths;
+  for (int64_t neighbour_id : neighbour_ids) {
+    if (neighbour_id == id) continue;
+    const StoredKeyframe& neighbour = store.entry(neighbour_id);
+    const std::vector<double> matched = matchDepthsAlongEpipolarLines(
+        keyframe.camera, store.entry(id).grayImage(), neighbour.keyframe.camera, neighbour.grayImage(),
+        options.matching);
+    depths.insert(depths.end(), matched.begin(), matched.end());
+  }
+  std::string why;
+  if (static_cast<int>(depths.size()) < options.min_matched_points) {
+    why = std::to_string(depths.size()) + " matched depths < " + std::to_string(options.min_matched_points);
+  } else if (rangeFromSamples(depths, options, &estimate, &why)) {
+    estimate.source = DepthRangeSource::kMatchedPatches;
+    estimate.reason = "no depth map or sparse point yet; from " + std::to_string(depths.size()) +
+                      " depths matched along epipolar lines " + rangeText(estimate.min, estimate.max);
+    return estimate;
+  }
+  estimate.reason = "matched patches: " + why + "; " + estimate.reason;
+  return estimate;
 }
 
 }  // namespace amhmvs

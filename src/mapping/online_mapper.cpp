@@ -306,15 +306,15 @@ OnlineMapper::~OnlineMapper() {
 }
 
 std::vector<int64_t> OnlineMapper::consistencyViews(int64_t id) const {
-  std::vector<const Keyframe*> candidates;
+  std::vector<int64_t> candidates;
   for (int64_t other : store_.ids()) {
-    if (other == id || !hasDepthAndNormals(store_.entry(other))) continue;
-    candidates.push_back(&store_.keyframe(other));
+    if (other != id && hasDepthAndNormals(store_.entry(other))) candidates.push_back(other);
   }
   if (candidates.empty()) return {};
   SourceSelectionOptions options = options_.sources;
   options.max_sources = std::min(kMaxSourceViews, std::max(options.max_sources, options_.fusion.min_consistent_views));
-  return selectSources(store_.keyframe(id), candidates, options).source_ids;
+  // Through the store: the scene depth is the keyframe's own depth map's.
+  return selectSources(store_, id, candidates, options).source_ids;
 }
 
 KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& view_ids) const {

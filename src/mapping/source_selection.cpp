@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/core/median.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
 
 namespace amhmvs {
@@ -27,15 +28,6 @@ std::string compact(double value) {
   std::ostringstream out;
   out << std::setprecision(4) << value;
   return out.str();
-}
-
-double medianOf(std::vector<double> values) {
-  const size_t mid = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + mid, values.end());
-  const double upper = values[mid];
-  if (values.size() % 2 == 1) return upper;
-  const double lower = *std::max_element(values.begin(), values.begin() + mid);
-  return 0.5 * (lower + upper);
 }
 
 double angleBetweenDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
@@ -136,44 +128,13 @@ std::string SourceSelectionOptions::validate() const {
   if (overlap_grid < 2 || overlap_grid > 1000) {
     why << "overlap_grid must be in [2, 1000] (got " << overlap_grid << ")\n";
   }
-  if (min_sparse_points < 1) why << "min_sparse_points must be positive\n";
-  if (!(finite(default_scene_depth) && default_scene_depth > 0)) {
-    why << "default_scene_depth must be positive and finite (got " << default_scene_depth << ")\n";
-  }
+  why << SceneDepthOptions::validate();
   return why.str();
 }
 
-SceneDepth sceneDepth(const Keyframe& keyframe, const SourceSelectionOptions& options) {
-  std::vector<double> depths;
-  for (const Eigen::Vector3d& world : keyframe.sparse_points) {
-    const Eigen::Vector3d point = keyframe.camera.toCamera(world);
-    if (point.allFinite() && point.z() > 0 &&
-        keyframe.camera.contains(keyframe.camera.project(point))) {
-      depths.push_back(point.z());
-    }
-  }
-  SceneDepth result;
-  if (static_cast<int>(depths.size()) >= options.min_sparse_points) {
-    result.depth = medianOf(depths);
-    result.source = "median of " + std::to_string(depths.size()) + " sparse points";
-  } else if (keyframe.hasDepthRange() && std::isfinite(keyframe.depth_min + keyframe.depth_max)) {
-    result.depth = 0.5 * (keyframe.depth_min + keyframe.depth_max);
-    result.source = "middle of the depth range";
-  } else {
-    result.depth = options.default_scene_depth;
-    result.source =
-        "default (" + std::to_string(depths.size()) + " sparse points in view, no depth range)";
-  }
-  if (!(std::isfinite(result.depth) && result.depth > 0)) {  // e.g. an absurd range
-    result.depth = options.default_scene_depth;
-    result.source = "default (no finite positive scene depth)";
-  }
-  return result;
-}
+namespace {
 
-SourceSelection selectSources(const Keyframe& target,
-                              const std::vector<const Keyframe*>& candidates,
-                              const SourceSelectionOptions& options) {
+void requireValid(const Keyframe& target, const SourceSelectionOptions& options) {
   const std::string options_problem = options.validate();
   if (!options_problem.empty()) throw InputError("source selection options: " + options_problem);
   const std::string camera_problem = target.camera.validate();
@@ -181,9 +142,12 @@ SourceSelection selectSources(const Keyframe& target,
     throw InputError("source selection: keyframe " + std::to_string(target.id) +
                      ": camera: " + camera_problem);
   }
+}
 
+SourceSelection selectAtDepth(const Keyframe& target, const std::vector<const Keyframe*>& candidates,
+                              const SceneDepth& scene_depth, const SourceSelectionOptions& options) {
   SourceSelection selection;
-  selection.scene_depth = sceneDepth(target, options);
+  selection.scene_depth = scene_depth;
   const double depth = selection.scene_depth.depth;
 
   // Grid of target pixels at the scene depth, in the world frame.
@@ -243,14 +207,33 @@ SourceSelection selectSources(const Keyframe& target,
   return selection;
 }
 
+}  // namespace
+
+SourceSelection selectSources(const Keyframe& target,
+                              const std::vector<const Keyframe*>& candidates,
+                              const SourceSelectionOptions& options) {
+  requireValid(target, options);
+  return selectAtDepth(target, candidates, sceneDepth(target, options), options);
+}
+
 SourceSelection selectSources(const KeyframeStore& store, int64_t target_id,
+                              const std::vector<int64_t>& candidate_ids,
                               const SourceSelectionOptions& options) {
   const Keyframe& target = store.keyframe(target_id);
+  requireValid(target, options);
+  std::vector<int64_t> others;
   std::vector<const Keyframe*> candidates;
-  for (int64_t id : store.ids()) {
-    if (id != target_id) candidates.push_back(&store.keyframe(id));
+  for (int64_t id : candidate_ids) {
+    if (id == target_id) continue;
+    others.push_back(id);
+    candidates.push_back(&store.keyframe(id));
   }
-  return selectSources(target, candidates, options);
+  return selectAtDepth(target, candidates, sceneDepth(store, target_id, others, options), options);
+}
+
+SourceSelection selectSources(const KeyframeStore& store, int64_t target_id,
+                              const SourceSelectionOptions& options) {
+  return selectSources(store, target_id, store.ids(), options);
 }
 
 }  // namespace amhmvs

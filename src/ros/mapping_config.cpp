@@ -68,6 +68,7 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "sources/max_axis_angle_deg", &o->sources.max_axis_angle_deg);
   read(nh, "sources/min_overlap", &o->sources.min_overlap);
   read(nh, "sources/preferred_angle_deg", &o->sources.preferred_angle_deg);
+  read(nh, "sources/match_when_unknown", &o->sources.match_when_unknown);
   read(nh, "sources/default_scene_depth", &o->sources.default_scene_depth);
 
   read(nh, "depth_range/use_given_range", &o->depth_range.use_given_range);
@@ -75,6 +76,7 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "depth_range/far_factor", &o->depth_range.far_factor);
   read(nh, "depth_range/min_sparse_points", &o->depth_range.min_sparse_points);
   read(nh, "depth_range/min_depth_samples", &o->depth_range.min_depth_samples);
+  read(nh, "depth_range/match_when_unknown", &o->depth_range.match_when_unknown);
   read(nh, "depth_range/default_min", &o->depth_range.default_min);
   read(nh, "depth_range/default_max", &o->depth_range.default_max);
 
@@ -115,6 +117,11 @@ amhmvs::OnlineMapperOptions MappingConfig::defaultMapperOptions() {
   return options;
 }
 
+int effectiveMaxImageSize(int configured, amhmvs::Backend backend) {
+  if (configured != -1) return configured;
+  return backend == amhmvs::Backend::kCpu ? kCpuAutoMaxImageSize : 0;
+}
+
 MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors) {
   MappingConfig c;
   const MappingConfig defaults;
@@ -129,6 +136,7 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
   read(pnh, "keyframe_min_rotation_deg", &c.keyframe_min_rotation_deg);
   read(pnh, "backend", &c.backend);
   read(pnh, "max_image_size", &c.max_image_size);
+  read(pnh, "publish_depth_mm", &c.publish_depth_mm);
   read(pnh, "map_publish_period", &c.map_publish_period);
   read(pnh, "diagnostics_period", &c.diagnostics_period);
   read(pnh, "silence_timeout", &c.silence_timeout);
@@ -163,8 +171,8 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
     err << "backend: " << e.what() << "; using auto\n";
     c.backend = defaults.backend;
   }
-  require(c.max_image_size == 0 || c.max_image_size >= 16,
-          "max_image_size must be 0 (off) or >= 16", c.max_image_size, defaults.max_image_size);
+  require(c.max_image_size == -1 || c.max_image_size == 0 || c.max_image_size >= 16,
+          "max_image_size must be -1 (auto), 0 (full size) or >= 16", c.max_image_size, defaults.max_image_size);
   require(c.map_publish_period > 0, "map_publish_period must be > 0", c.map_publish_period,
           defaults.map_publish_period);
   require(c.diagnostics_period > 0, "diagnostics_period must be > 0", c.diagnostics_period,

@@ -45,6 +45,9 @@ void MappingNodelet::onInit() {
     }
   }));
 
+  // Auto size: known once the backend is (the CPU's fallback included).
+  config_.max_image_size = effectiveMaxImageSize(config_.max_image_size, pipeline_->backend());
+
   outputs_.reset(new MappingOutputs(nh, config_, [this] {
     map_requested_ = true;
     pipeline_->wake();

@@ -40,6 +40,7 @@ MappingOutputs::MappingOutputs(ros::NodeHandle& nh, const MappingConfig& config,
     : config_(config) {
   it_.reset(new image_transport::ImageTransport(nh));
   depth_pub_ = it_->advertiseCamera("depth/image", 5);
+  if (config_.publish_depth_mm) depth_mm_pub_ = it_->advertiseCamera("depth_mm/image", 5);
   confidence_pub_ = it_->advertise("confidence/image", 5);
   preview_pub_ = it_->advertise("depth/preview", 5);
   cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("keyframe_cloud", 5);
@@ -69,6 +70,8 @@ void MappingOutputs::publish(const amhmvs::KeyframeResult& result, const Keyfram
   if (result.has_depth) {
     if (depth_pub_.getNumSubscribers() > 0)
       depth_pub_.publish(depthImageMsg(result.depth.depth, header), cameraInfoMsg(result.camera, header));
+    if (depth_mm_pub_.getNumSubscribers() > 0)
+      depth_mm_pub_.publish(depthImageMillimetresMsg(result.depth.depth, header), cameraInfoMsg(result.camera, header));
     if (confidence_pub_.getNumSubscribers() > 0) confidence_pub_.publish(confidenceImageMsg(result.depth, header));
     if (preview_pub_.getNumSubscribers() > 0) {
       sensor_msgs::ImagePtr preview = depthPreviewMsg(result.depth.depth, header);

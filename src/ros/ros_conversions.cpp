@@ -123,21 +123,40 @@ std::string cameraFromMsg(const sensor_msgs::CameraInfo& info, int width, int he
   return "";
 }
 
-sensor_msgs::ImagePtr depthImageMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header) {
+namespace {
+
+// A depth image message of `depth`'s size, one Pixel per pixel of
+// convert(depth value).
+template <typename Pixel, typename Convert>
+sensor_msgs::ImagePtr depthMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header,
+                               const std::string& encoding, Convert convert) {
   auto msg = boost::make_shared<sensor_msgs::Image>();
   msg->header = header;
   msg->width = depth.width;
   msg->height = depth.height;
-  msg->encoding = enc::TYPE_32FC1;
+  msg->encoding = encoding;
   msg->is_bigendian = false;
-  msg->step = depth.width * sizeof(float);
+  msg->step = depth.width * sizeof(Pixel);
   msg->data.resize(static_cast<size_t>(msg->step) * depth.height);
-  float* out = reinterpret_cast<float*>(msg->data.data());
-  for (size_t i = 0; i < depth.pixelCount(); ++i) {
-    const float d = depth.data[i * depth.channels];
-    out[i] = std::isfinite(d) && d > 0 ? d : std::numeric_limits<float>::quiet_NaN();
-  }
+  Pixel* out = reinterpret_cast<Pixel*>(msg->data.data());
+  for (size_t i = 0; i < depth.pixelCount(); ++i) out[i] = convert(depth.data[i * depth.channels]);
   return msg;
+}
+
+}  // namespace
+
+sensor_msgs::ImagePtr depthImageMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header) {
+  return depthMsg<float>(depth, header, enc::TYPE_32FC1, [](float d) {
+    return std::isfinite(d) && d > 0 ? d : std::numeric_limits<float>::quiet_NaN();
+  });
+}
+
+sensor_msgs::ImagePtr depthImageMillimetresMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header) {
+  return depthMsg<uint16_t>(depth, header, enc::TYPE_16UC1, [](float d) {
+    const double millimetres = std::round(1000.0 * d);
+    const bool fits = std::isfinite(millimetres) && millimetres >= 1 && millimetres <= 65535;
+    return fits ? static_cast<uint16_t>(millimetres) : uint16_t{0};
+  });
 }
 
 sensor_msgs::CameraInfoPtr cameraInfoMsg(const amhmvs::PinholeCamera& camera, const std_msgs::Header& header) {

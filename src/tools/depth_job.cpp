@@ -19,7 +19,7 @@
 #include "amhmvs_mapping/eval/ground_truth_depth.h"
 #include "amhmvs_mapping/io/background_writer.h"
 #include "amhmvs_mapping/io/colmap_model.h"
-#include "amhmvs_mapping/io/colormap.h"
+#include "amhmvs_mapping/io/depth_preview.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"
@@ -115,12 +115,8 @@ std::vector<std::function<void()>> depthOutputJobs(const std::string& dir, const
   jobs.push_back([dir, map, depth_min, depth_max] {
     // Colour scale from the map's own robust range, else the problem's range
     // (a map with no valid depth at all is shown black).
-    std::pair<float, float> range(static_cast<float>(depth_min), static_cast<float>(depth_max));
-    try {
-      range = robustRange(map->depth);
-    } catch (const InputError&) {
-    }
-    writePng(dir + "/depth.png", colorizeDepth(map->depth, range.first, range.second));
+    writePng(dir + "/depth.png",
+             depthPreview(map->depth, static_cast<float>(depth_min), static_cast<float>(depth_max)));
   });
   jobs.push_back([dir, camera, depth_min, depth_max] { writeMvsnetCam(dir + "/cam.txt", camera, depth_min, depth_max); });
   return jobs;

@@ -37,6 +37,9 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     else if (name == "max_image_size") options.max_image_size = parseValue<int>(name, value);
     else if (name == "num_sources") pipeline.mapper.sources.max_sources = parseValue<int>(name, value);
     else if (name == "scene_depth") pipeline.mapper.sources.default_scene_depth = parseValue<double>(name, value);
+    else if (name == "min_triangulation_angle_deg")
+      pipeline.mapper.sources.min_triangulation_angle_deg = parseValue<double>(name, value);
+    else if (name == "preferred_angle_deg") pipeline.mapper.sources.preferred_angle_deg = parseValue<double>(name, value);
     else if (name == "voxel_size") pipeline.mapper.map.leaf_size = parseValue<double>(name, value);
     else if (name == "queue_size") options.queue_size = parseValue<size_t>(name, value);
     else if (name == "start") frames.start = parseValue<size_t>(name, value);
@@ -120,7 +123,10 @@ std::string mapToolUsage() {
          "  --backend auto|cuda|cpu   (default auto)\n"
          "  --max_image_size N   longest processed image side, 0 = as recorded (default 0)\n"
          "  --num_sources N      source views per keyframe, at most (default 8)\n"
-         "  --scene_depth M      scene depth for source selection without a range (default 3)\n"
+         "  --scene_depth M      last-resort scene depth for source selection, when neither the\n"
+         "                       data (range, depth maps, matched patches) gives one (default 3)\n"
+         "  --min_triangulation_angle_deg D --preferred_angle_deg D  source ranking (default\n"
+         "                       1, 5: MVSNet's; 2, 8 suit noisy real poses better, see README)\n"
          "  --depth_min M --depth_max M  depth range of every keyframe (default: from the\n"
          "                       layout (MVSNet, COLMAP), else the neighbours' depth maps)\n"
          "  --voxel_size M       map voxel edge (default 0.02)\n"

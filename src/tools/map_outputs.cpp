@@ -11,7 +11,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/eval/cloud_metrics.h"
 #include "amhmvs_mapping/eval/ground_truth_depth.h"
-#include "amhmvs_mapping/io/colormap.h"
+#include "amhmvs_mapping/io/depth_preview.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/pfm.h"
 #include "amhmvs_mapping/io/point_cloud_io.h"
@@ -253,13 +253,10 @@ void MapOutputs::writeFiles(const KeyframeResult& result) {
   const std::string name = id6(result.id);
   if (result.has_depth && options_.write_depth) writePfm(dir_ + "/depth/" + name + ".pfm", result.depth.depth);
   if (result.has_depth && options_.write_previews) {
-    std::pair<float, float> range(static_cast<float>(result.depth_range.min),
-                                  static_cast<float>(result.depth_range.max));
-    try {
-      range = robustRange(result.depth.depth);
-    } catch (const InputError&) {  // no valid depth: the estimate's range
-    }
-    writePng(dir_ + "/previews/" + name + ".png", colorizeDepth(result.depth.depth, range.first, range.second));
+    // No valid depth: the estimate's range.
+    writePng(dir_ + "/previews/" + name + ".png",
+             depthPreview(result.depth.depth, static_cast<float>(result.depth_range.min),
+                          static_cast<float>(result.depth_range.max)));
   }
   if (!options_.write_clouds) return;
   for (const FusedKeyframe& fused : result.fused) {

@@ -3,6 +3,7 @@
 // follow REP-118 and carry no NaN points.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -124,6 +125,30 @@ TEST(RosConversions, CameraInfoMustMatchTheImage) {
   info.D = {0.1, 0, 0, 0, 0};
   ASSERT_EQ(cameraFromMsg(info, 100, 80, Eigen::Isometry3d::Identity(), &camera, &distorted), "");
   EXPECT_TRUE(distorted);
+}
+
+// REP-118's 16UC1: millimetres, rounded; 0 where invalid, non-positive or
+// beyond what 16 bits hold.
+TEST(RosConversions, DepthInMillimetres) {
+  amhmvs::ImageF depth(6, 1, 1);
+  const float metres[6] = {1.2344f, 0.0f, NAN, 65.535f, 65.6f, -2.0f};
+  std::copy(metres, metres + 6, depth.data.begin());
+  std_msgs::Header header;
+  header.frame_id = "cam";
+  const sensor_msgs::ImagePtr msg = depthImageMillimetresMsg(depth, header);
+  EXPECT_EQ(msg->encoding, "16UC1");
+  EXPECT_EQ(msg->header.frame_id, "cam");
+  EXPECT_EQ(msg->step, 12u);
+  EXPECT_FALSE(msg->is_bigendian);
+  uint16_t values[6];
+  ASSERT_EQ(msg->data.size(), sizeof(values));
+  std::memcpy(values, msg->data.data(), sizeof(values));
+  EXPECT_EQ(values[0], 1234);
+  EXPECT_EQ(values[1], 0);
+  EXPECT_EQ(values[2], 0);
+  EXPECT_EQ(values[3], 65535);
+  EXPECT_EQ(values[4], 0);
+  EXPECT_EQ(values[5], 0);
 }
 
 TEST(RosConversions, DepthOutputsAndCloud) {

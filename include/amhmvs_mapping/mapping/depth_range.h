@@ -7,7 +7,11 @@
 //   3. finished depth maps of overlapping keyframes: their valid depths
 //      (every depth_map_stride-th pixel) reprojected into this keyframe, the
 //      same percentiles and factors, with >= min_depth_samples samples;
-//   4. [default_min, default_max].
+//   4. (store overload, match_when_unknown) before any depth map or point
+//      exists, e.g. the first pair of a run: patches of the keyframe matched
+//      along epipolar lines in its sources (epipolar_depth_search.h), the
+//      same percentiles and factors, with >= min_matched_points depths;
+//   5. [default_min, default_max].
 // The result is always finite with 0 < min < max; `reason` says which rule
 // gave it and why the earlier ones did not.
 #pragma once
@@ -19,6 +23,7 @@
 
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
+#include "amhmvs_mapping/mapping/epipolar_depth_search.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 
 namespace amhmvs {
@@ -32,6 +37,9 @@ struct DepthRangeOptions {
   int min_sparse_points = 10;
   int min_depth_samples = 100;
   int depth_map_stride = 2;  // pixel step when reprojecting neighbour depth maps
+  bool match_when_unknown = true;  // rule 4
+  int min_matched_points = 20;
+  EpipolarSearchOptions matching;
   double default_min = 0.3;  // metres
   double default_max = 30.0;
 
@@ -39,7 +47,7 @@ struct DepthRangeOptions {
   std::string validate() const;
 };
 
-enum class DepthRangeSource { kGiven, kSparsePoints, kNeighbourDepthMaps, kDefault };
+enum class DepthRangeSource { kGiven, kSparsePoints, kNeighbourDepthMaps, kMatchedPatches, kDefault };
 const char* depthRangeSourceName(DepthRangeSource source);
 
 struct DepthRangeEstimate {
@@ -66,7 +74,8 @@ DepthRangeEstimate estimateDepthRange(const Keyframe& keyframe,
 
 // Same, for stored keyframe `id` with the finished depth maps of the stored
 // `neighbour_ids` (e.g. its selected sources); neighbours without a depth map
-// are skipped. Throws InputError for an unknown id.
+// are skipped; rule 4 matches against all of them. Throws InputError for an
+// unknown id.
 DepthRangeEstimate estimateDepthRange(const KeyframeStore& store, int64_t id,
                                       const std::vector<int64_t>& neighbour_ids,
                                       const DepthRangeOptions& options = DepthRangeOptions());

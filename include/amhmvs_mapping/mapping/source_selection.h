@@ -2,7 +2,8 @@
 // paper's "N preselected according to viewing angle and baseline", sec. 3.2).
 //
 // For each candidate keyframe, at the scene depth d of the new (target)
-// keyframe (sceneDepth()):
+// keyframe (scene_depth.h: sparse points, depth range, depth maps, patches
+// matched along epipolar lines, a default):
 //   - baseline: distance of the camera centres; below 1e-3 d the pair cannot
 //     triangulate (pure rotation or duplicate pose);
 //   - optical-axis angle must be <= max_axis_angle_deg;
@@ -23,10 +24,12 @@
 #include <vector>
 
 #include "amhmvs_mapping/mapping/keyframe_store.h"
+#include "amhmvs_mapping/mapping/scene_depth.h"
 
 namespace amhmvs {
 
-struct SourceSelectionOptions {
+// The scene-depth options are its base: options.default_scene_depth etc.
+struct SourceSelectionOptions : SceneDepthOptions {
   // The paper's Strecha runs use all 10 other views; 8 keeps online depth
   // estimation cheaper while giving the joint view selection enough choice.
   int max_sources = 8;
@@ -38,22 +41,10 @@ struct SourceSelectionOptions {
   double sigma_below_deg = 1.0;      // MVSNet sigma1
   double sigma_above_deg = 10.0;     // MVSNet sigma2
   int overlap_grid = 12;             // grid samples per image side
-  // Scene depth: median z-depth of the target's sparse points (in front and
-  // inside the image, at least min_sparse_points of them), else the middle of
-  // its depth range, else default_scene_depth.
-  int min_sparse_points = 5;
-  double default_scene_depth = 3.0;  // metres
 
-  // Empty when valid; otherwise one line per problem.
+  // Empty when valid (scene-depth options included); otherwise one line per problem.
   std::string validate() const;
 };
-
-struct SceneDepth {
-  double depth = 0;    // metres, finite and positive
-  std::string source;  // e.g. "median of 120 sparse points", "middle of depth range"
-};
-// Scene z-depth of a keyframe as described in SourceSelectionOptions.
-SceneDepth sceneDepth(const Keyframe& keyframe, const SourceSelectionOptions& options);
 
 struct SourceViewCandidate {
   int64_t id = 0;
@@ -74,15 +65,22 @@ struct SourceSelection {
 };
 
 // Selects sources for `target` among `candidates` (a candidate with the
-// target's id is ignored). Throws InputError for invalid options, an invalid
+// target's id is ignored), at the scene depth the keyframe alone gives
+// (sceneDepth(keyframe): sparse points, depth range, default). Throws InputError for invalid options, an invalid
 // target camera or a null candidate; an invalid candidate is rejected with
 // its reason.
 SourceSelection selectSources(const Keyframe& target,
                               const std::vector<const Keyframe*>& candidates,
                               const SourceSelectionOptions& options = SourceSelectionOptions());
 
-// Selects among all other keyframes of the store; throws InputError for an
-// unknown target id.
+// Selects among the stored keyframes `candidate_ids`, at the scene depth of
+// every rule of scene_depth.h (their depth maps and images included); throws
+// InputError for an unknown id.
+SourceSelection selectSources(const KeyframeStore& store, int64_t target_id,
+                              const std::vector<int64_t>& candidate_ids,
+                              const SourceSelectionOptions& options = SourceSelectionOptions());
+
+// Same, among all other keyframes of the store.
 SourceSelection selectSources(const KeyframeStore& store, int64_t target_id,
                               const SourceSelectionOptions& options = SourceSelectionOptions());
 

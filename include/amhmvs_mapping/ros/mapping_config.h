@@ -18,7 +18,9 @@ struct MappingConfig {
   std::string input_mode = "pose";   // "pose" (image + camera_info + PoseStamped), "odometry", "tf", "keyframe"
   std::string fixed_frame = "world"; // tf mode: pose = fixed_frame <- image frame
   double tf_timeout = 0.1;           // wall seconds to wait for a transform (tf mode)
-  int queue_size = 4;                // bounded input queue (drop-oldest)
+  // Bounded input queue of keyframes (drop-oldest). 32 holds the bursts of
+  // the bags (11-16 keyframes in 3-5 s) while the CPU estimates for seconds.
+  int queue_size = 32;
   int sync_queue_size = 10;          // approximate-time synchroniser queue
   double sync_max_interval = 0.05;   // seconds between synchronised stamps
   // Keyframe picking (pose, odometry and tf modes): a frame becomes a keyframe
@@ -28,13 +30,17 @@ struct MappingConfig {
 
   // --- Estimation ---
   std::string backend = "auto";      // auto, cuda, cpu
-  int max_image_size = 0;            // downscale so that max(width, height) <= this; 0 = off
+  // Downscale so that max(width, height) <= this; 0 = full size; -1 = auto:
+  // full size on the GPU, kCpuAutoMaxImageSize on the CPU (effectiveMaxImageSize).
+  int max_image_size = -1;
   amhmvs::PatchMatchOptions estimator;  // ~estimator/<option name>
 
   // --- Mapping core: ~store/, ~sources/, ~depth_range/, ~fusion/, ~map/ ---
   amhmvs::OnlineMapperOptions mapper = defaultMapperOptions();
 
   // --- Output ---
+  // Also publish depth_mm/image (16UC1 millimetres, 0 invalid) + camera_info.
+  bool publish_depth_mm = false;
   double map_publish_period = 2.0;   // at most one map publication per this many seconds (on change)
   double diagnostics_period = 1.0;   // seconds
   // Diagnostics go WARN (and the log says which topics) when an input topic
@@ -49,6 +55,14 @@ struct MappingConfig {
   // The mapping core's defaults for online use (a bounded store of 50).
   static amhmvs::OnlineMapperOptions defaultMapperOptions();
 };
+
+// The CPU takes seconds per 320 px depth map on 2 cores and minutes at full
+// size: auto picks this on the CPU.
+constexpr int kCpuAutoMaxImageSize = 320;
+
+// The image size limit in use: `configured`, or for -1 (auto) full size (0)
+// on the GPU and kCpuAutoMaxImageSize on the CPU.
+int effectiveMaxImageSize(int configured, amhmvs::Backend backend);
 
 // Reads the parameters that are set under `pnh` into a config (unset ones keep
 // their defaults). Invalid values are reported in `errors` (one line each) and

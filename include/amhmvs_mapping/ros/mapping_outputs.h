@@ -1,5 +1,7 @@
 // Outputs of the mapping nodelet (in its namespace):
 //   depth/image (REP-118 32FC1 z-depth, NaN invalid) + depth/camera_info,
+//   depth_mm/image (16UC1 millimetres, 0 invalid) + depth_mm/camera_info
+//     with ~publish_depth_mm,
 //   confidence/image, depth/preview (bgr8): per depth map, with the
 //     keyframe's own stamp and optical frame (late and refined maps too);
 //   keyframe_cloud: a keyframe's fused points (its optical frame), when it is
@@ -56,7 +58,7 @@ class MappingOutputs {
  private:
   MappingConfig config_;
   std::unique_ptr<image_transport::ImageTransport> it_;
-  image_transport::CameraPublisher depth_pub_;
+  image_transport::CameraPublisher depth_pub_, depth_mm_pub_;  // depth_mm_pub_: with publish_depth_mm
   image_transport::Publisher confidence_pub_, preview_pub_;
   ros::Publisher cloud_pub_, map_pub_, markers_pub_;
   uint64_t published_map_revision_ = 0;

@@ -47,6 +47,9 @@ std::string cameraFromMsg(const sensor_msgs::CameraInfo& info, int width, int he
 // Output builders. `header`: keyframe stamp and the optical frame.
 // REP-118: 32FC1, z-depth in metres, NaN where invalid.
 sensor_msgs::ImagePtr depthImageMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header);
+// REP-118's integer form: 16UC1, z-depth in millimetres (rounded), 0 where
+// invalid or beyond 65.535 m (what fits).
+sensor_msgs::ImagePtr depthImageMillimetresMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header);
 // CameraInfo of the (possibly downscaled) camera: K, P, no distortion.
 sensor_msgs::CameraInfoPtr cameraInfoMsg(const amhmvs::PinholeCamera& camera, const std_msgs::Header& header);
 // 32FC1 confidence in [0, 1]: 1 - cost / 2 where the depth is valid, else 0.
