@@ -262,7 +262,7 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
 void OnlineMapper::addToMap(int64_t id, KeyframePoints points) {
   finishMapWork();  // one update at a time, in order
   const Eigen::Isometry3d pose = store_.keyframe(id).cameraToWorld();
-  const auto update = [this, id, pose, points = std::move(points)]() {
+  std::function<MapUpdateRecord()> update = [this, id, pose, points = std::move(points)]() {
     const Clock::time_point start = Clock::now();
     MapUpdateRecord record;
     record.id = id;
@@ -272,7 +272,8 @@ void OnlineMapper::addToMap(int64_t id, KeyframePoints points) {
   };
   ++map_revision_;
   if (options_.map_in_background) {
-    map_work_ = std::async(std::launch::async, update);
+    if (!map_worker_) map_worker_.reset(new SerialWorker());
+    map_work_ = map_worker_->submit(std::move(update));
   } else {
     finished_map_updates_.push_back(update());
     map_voxel_count_ = map_.voxelCount();

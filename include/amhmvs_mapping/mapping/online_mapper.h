@@ -48,10 +48,12 @@
 #include <functional>
 #include <future>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "amhmvs_mapping/core/serial_worker.h"
 #include "amhmvs_mapping/mapping/depth_range.h"
 #include "amhmvs_mapping/mapping/fusion.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
@@ -254,6 +256,7 @@ class OnlineMapper {
   VoxelMap map_;
   // The map update in the background (at most one) and what finished.
   mutable std::future<MapUpdateRecord> map_work_;
+  std::unique_ptr<SerialWorker> map_worker_;  // created with the first background update
   mutable std::vector<MapUpdateRecord> finished_map_updates_;
   mutable size_t map_voxel_count_ = 0;
   uint64_t map_revision_ = 0;
