@@ -39,6 +39,9 @@ from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import CameraInfo, Image
 
 from amhmvs_mapping.srv import SaveMap
+# In the devel space catkin runs this file through a relay script in another
+# folder: demo_outputs is found next to this file (installed: the same folder).
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from demo_outputs import colour_depth_pair, read_ply
 
 THRESHOLDS = (0.01, 0.02, 0.05)      # relative depth error, as amhmvs_depth --ground_truth
