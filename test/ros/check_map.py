@@ -107,6 +107,7 @@ class MapReplay(unittest.TestCase):
         for p in points:
             self.assertTrue(all(math.isfinite(v) for v in p))
         if not self.bbox:
+            rospy.loginfo('check_map: %d map points', len(points))
             return
         lo = [v - self.margin for v in self.bbox[:3]]
         hi = [v + self.margin for v in self.bbox[3:]]

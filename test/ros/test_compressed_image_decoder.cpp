@@ -1,7 +1,10 @@
 // The compressed transport's decoder: PNG round trips exactly in the
 // encoding the format names (rgb8 from "compressed bgr8", mono8, old "png"
-// formats), JPEG within its loss; garbage is an error naming the format.
+// formats, 16-bit mono), JPEG within its loss; garbage is an error naming
+// the format.
 #include <gtest/gtest.h>
+
+#include <cstring>
 
 #include <opencv2/imgcodecs.hpp>
 #include <sensor_msgs/image_encodings.h>
@@ -58,6 +61,16 @@ TEST(CompressedImageDecoder, MonoAndOldFormatsByChannelCount) {
   EXPECT_EQ(image->data[7], 77);
   EXPECT_EQ(decodeCompressedImage(compressed(grey, ".png", "png"))->encoding, enc::MONO8);
   EXPECT_EQ(decodeCompressedImage(compressed(bgrRamp(), ".jpg", "jpeg"))->encoding, enc::BGR8);
+}
+
+TEST(CompressedImageDecoder, SixteenBitPngStaysMono16) {
+  cv::Mat depth(3, 4, CV_16UC1, cv::Scalar(54321));
+  const sensor_msgs::ImagePtr image = decodeCompressedImage(compressed(depth, ".png", "mono16; png compressed "));
+  EXPECT_EQ(image->encoding, enc::MONO16);
+  ASSERT_EQ(image->step, 8u);
+  uint16_t value = 0;
+  std::memcpy(&value, &image->data[2 * image->step + 6], 2);
+  EXPECT_EQ(value, 54321);
 }
 
 TEST(CompressedImageDecoder, JpegBgr8WithinItsLoss) {
