@@ -158,7 +158,9 @@ if [ -f "$bag" ]; then
   # data folder has none)
   kitchen_bag=$build/bags/redkitchen_7scenes_40.bag
   mkdir -p "$build/bags"
-  python3 "$here/scripts/seven_scenes_to_bag.py" "$data/redkitchen_7scenes" "$kitchen_bag"
+  if [ -d "$data/redkitchen_7scenes" ]; then
+    python3 "$here/scripts/seven_scenes_to_bag.py" "$data/redkitchen_7scenes" "$kitchen_bag"
+  fi
   # name, test file, launch arguments
   for run in "fountain_manager_pose replay_fountain.test standalone:=false input_mode:=pose" \
              "fountain_standalone_tf replay_fountain.test standalone:=true input_mode:=tf" \
