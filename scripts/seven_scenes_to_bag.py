@@ -24,10 +24,8 @@ import cv2
 import numpy as np
 import rosbag
 import rospy
-from geometry_msgs.msg import PoseStamped, TransformStamped
-from tf2_msgs.msg import TFMessage
 
-from dense_folder_to_bag import FIXED_FRAME, OPTICAL_FRAME, camera_info_msg, image_msg, quaternion_xyzw
+from dense_folder_to_bag import OPTICAL_FRAME, camera_info_msg, image_msg, pose_and_tf
 
 
 def reprojected_depth(depth_mm, depth_k, color_k, offset, width, height):
@@ -97,17 +95,9 @@ def main():
 
             stamp = rospy.Time.from_sec(args.start + number / args.rate)
             header = rospy.Header(seq=index, stamp=stamp, frame_id=OPTICAL_FRAME)
-            pose = PoseStamped(header=rospy.Header(seq=index, stamp=stamp, frame_id=FIXED_FRAME))
-            pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = camera_to_world[:3, 3]
-            (pose.pose.orientation.x, pose.pose.orientation.y, pose.pose.orientation.z,
-             pose.pose.orientation.w) = quaternion_xyzw(camera_to_world[:3, :3])
-            transform = TransformStamped(header=pose.header, child_frame_id=OPTICAL_FRAME)
-            transform.transform.translation.x, transform.transform.translation.y, \
-                transform.transform.translation.z = camera_to_world[:3, 3]
-            transform.transform.rotation = pose.pose.orientation
-
+            pose, tf = pose_and_tf(camera_to_world, index, stamp)
             truth = reprojected_depth(depth_mm, depth_k, color_k, offset, width, height)
-            bag.write("/tf", TFMessage(transforms=[transform]), stamp)
+            bag.write("/tf", tf, stamp)
             bag.write("/camera/pose", pose, stamp)
             bag.write("/camera/camera_info", camera_info_msg(color_k, width, height, header), stamp)
             bag.write("/camera/image_raw", image_msg(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), "rgb8", header), stamp)
