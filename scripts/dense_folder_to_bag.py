@@ -90,6 +90,21 @@ def camera_info_msg(intrinsic, width, height, header):
                       P=[fx, 0, cx, 0, 0, fy, cy, 0, 0, 0, 1, 0])
 
 
+def pose_and_tf(camera_to_world, index, stamp):
+    """PoseStamped (frame world) and the world -> camera_optical TFMessage of a
+    4x4 camera-to-world pose."""
+    pose = PoseStamped(header=rospy.Header(seq=index, stamp=stamp, frame_id=FIXED_FRAME))
+    position, orientation = camera_to_world[:3, 3], quaternion_xyzw(camera_to_world[:3, :3])
+    pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = position
+    (pose.pose.orientation.x, pose.pose.orientation.y, pose.pose.orientation.z,
+     pose.pose.orientation.w) = orientation
+    transform = TransformStamped(header=pose.header, child_frame_id=OPTICAL_FRAME)
+    transform.transform.translation.x, transform.transform.translation.y, \
+        transform.transform.translation.z = position
+    transform.transform.rotation = pose.pose.orientation
+    return pose, TFMessage(transforms=[transform])
+
+
 def view_names(dense_dir):
     names = sorted(name[:-len("_cam.txt")] for name in os.listdir(os.path.join(dense_dir, "cams"))
                    if name.endswith("_cam.txt"))
@@ -121,17 +136,9 @@ def main():
             header = rospy.Header(seq=index, stamp=stamp, frame_id=OPTICAL_FRAME)
             height, width = bgr.shape[:2]
 
-            pose = PoseStamped(header=rospy.Header(seq=index, stamp=stamp, frame_id=FIXED_FRAME))
-            position, orientation = camera_to_world[:3, 3], quaternion_xyzw(camera_to_world[:3, :3])
-            pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = position
-            (pose.pose.orientation.x, pose.pose.orientation.y, pose.pose.orientation.z,
-             pose.pose.orientation.w) = orientation
-            transform = TransformStamped(header=pose.header, child_frame_id=OPTICAL_FRAME)
-            transform.transform.translation.x, transform.transform.translation.y, \
-                transform.transform.translation.z = position
-            transform.transform.rotation = pose.pose.orientation
+            pose, tf = pose_and_tf(camera_to_world, index, stamp)
 
-            bag.write("/tf", TFMessage(transforms=[transform]), stamp)
+            bag.write("/tf", tf, stamp)
             bag.write("/camera/pose", pose, stamp)
             bag.write("/camera/camera_info", camera_info_msg(intrinsic, width, height, header), stamp)
             bag.write("/camera/image_raw", image_msg(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), "rgb8", header), stamp)

@@ -134,7 +134,9 @@ grep -E "executions|FINDING" "$core_results/fuzzers.log" || true
 # services and a loop closure, a missing and a late transform, silent input topics, bad
 # and hostile input; the fountain and temple bags again on the shipped
 # config/mapping.yaml (nothing tuned: a depth image for every keyframe, nothing
-# dropped), and depth_image_proc/point_cloud_xyz + the 16UC1 output on ours.
+# dropped) and the redkitchen bag on it (real Kinect video, depth against the
+# Kinect's), depth_image_proc/point_cloud_xyz + the 16UC1 output on ours, and
+# the fountain bag as JPEG through the `compressed` transport.
 echo "== ROS tests (message conversions; rostest) =="
 ros_results=$build/test_results/ros
 rm -rf "$ros_results"
@@ -152,6 +154,13 @@ if [ -f "$bag" ]; then
   set -u
   export ROS_PACKAGE_PATH=$here${ROS_PACKAGE_PATH:+:$ROS_PACKAGE_PATH}
   export ROS_HOME=${ROS_HOME:-$build/ros_home}
+  # redkitchen: 40 frames of the 7-Scenes folder as a bag (written here: the
+  # data folder has none)
+  kitchen_bag=$build/bags/redkitchen_7scenes_40.bag
+  mkdir -p "$build/bags"
+  if [ -d "$data/redkitchen_7scenes" ]; then
+    python3 "$here/scripts/seven_scenes_to_bag.py" "$data/redkitchen_7scenes" "$kitchen_bag"
+  fi
   # name, test file, launch arguments
   for run in "fountain_manager_pose replay_fountain.test standalone:=false input_mode:=pose" \
              "fountain_standalone_tf replay_fountain.test standalone:=true input_mode:=tf" \
@@ -165,7 +174,9 @@ if [ -f "$bag" ]; then
              "bad_input bad_input.test" \
              "fountain_shipped_defaults replay_fountain.test defaults:=true" \
              "temple_shipped_defaults replay_map.test scene:=temple defaults:=true" \
-             "depth_interop depth_interop.test"; do
+             "redkitchen_shipped_defaults replay_map.test scene:=redkitchen defaults:=true bag:=$kitchen_bag" \
+             "depth_interop depth_interop.test" \
+             "fountain_compressed_jpeg replay_fountain.test compressed:=jpeg"; do
     read -r name file args <<< "$run"
     dir=$ros_results/$name
     mkdir -p "$dir"
@@ -176,7 +187,8 @@ if [ -f "$bag" ]; then
   done
 else
   echo "rostest: skipped, no bag at $bag"
-  ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped)
+  ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped
+             skipped skipped)
 fi
 
 # The package the way a ROS user builds it: in a fresh catkin workspace

@@ -48,8 +48,11 @@ MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const Ma
   }
   it_.reset(new image_transport::ImageTransport(nh));
   const uint32_t q = config_.sync_queue_size;
+  // The base topic resolved here, so that a remap of `image` holds for every
+  // transport: this image_transport appends "/compressed" to the unresolved
+  // name, and image:=/camera/image gave <ns>/image/compressed.
   image_filter_.reset(new image_transport::SubscriberFilter(
-      *it_, "image", q, image_transport::TransportHints("raw", ros::TransportHints(), pnh)));
+      *it_, nh.resolveName("image"), q, image_transport::TransportHints("raw", ros::TransportHints(), pnh)));
   info_filter_.reset(new message_filters::Subscriber<sensor_msgs::CameraInfo>(nh, "camera_info", q));
   // Arrivals of each topic, before synchronisation (what is silent?).
   watchFilter(*image_filter_);

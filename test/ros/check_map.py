@@ -6,8 +6,13 @@ and stamp of an input image and a matching camera_info, that keyframe clouds
 and the map have no NaN point and are in the right frames, that the map is not
 empty, and (with ~bbox) that every map point lies in the box widened by
 ~bbox_margin metres (at most ~max_fraction_elsewhere of the points, default
-0, may be elsewhere)."""
+0, may be elsewhere). With ~truth_topic (32FC1 z-depth images with the input
+stamps, e.g. a bag's /camera/depth_gt), each keyframe's last depth image is
+compared with the truth of its stamp where both have depth: the pooled median
+relative error at most ~max_median_error, at least ~min_within_10pct percent
+within 10 %."""
 import math
+import struct
 import sys
 import unittest
 
@@ -39,6 +44,10 @@ class MapReplay(unittest.TestCase):
         cls.info = watch.record(ns + '/depth/camera_info', CameraInfo)
         cls.clouds = watch.record(ns + '/keyframe_cloud', PointCloud2)
         cls.maps = watch.record(ns + '/map', PointCloud2)
+        cls.truth_topic = rospy.get_param('~truth_topic', '')
+        cls.truth = watch.record(cls.truth_topic, Image) if cls.truth_topic else []
+        cls.max_median_error = rospy.get_param('~max_median_error', 1.0)
+        cls.min_within_10pct = rospy.get_param('~min_within_10pct', 0.0)
 
         def processed():  # idle: every late depth map is out too
             return watch.count('keyframes_received') >= cls.expected and watch.diagnostics.get('idle') == 'True'
@@ -56,7 +65,7 @@ class MapReplay(unittest.TestCase):
         self.assertEqual({k: v for k, v in self.diagnostics.items() if k.startswith('dropped') and v != '0'}, {})
         depth_stamps = set(m.header.stamp for m in self.depth)  # refined depth maps come again
         self.assertGreaterEqual(len(depth_stamps), self.min_depth_maps)
-        self.assertEqual(self.watch.count('keyframes_waiting_for_sources'), len(self.images) - len(depth_stamps))
+        self.assertEqual(self.watch.count('keyframes_waiting_for_sources'), self.expected - len(depth_stamps))
         # With a region of interest: it kept points out (they are counted).
         self.assertGreaterEqual(self.watch.count('map_points_outside_region'), self.min_outside_region)
 
@@ -98,6 +107,7 @@ class MapReplay(unittest.TestCase):
         for p in points:
             self.assertTrue(all(math.isfinite(v) for v in p))
         if not self.bbox:
+            rospy.loginfo('check_map: %d map points', len(points))
             return
         lo = [v - self.margin for v in self.bbox[:3]]
         hi = [v + self.margin for v in self.bbox[3:]]
@@ -109,6 +119,41 @@ class MapReplay(unittest.TestCase):
                       len(outside), distances[len(distances) // 2] if distances else 0,
                       distances[-1] if distances else 0)
         self.assertLessEqual(len(outside), self.max_fraction_elsewhere * len(points), outside[:10])
+
+    def test_05_depth_against_truth(self):
+        if not self.truth_topic:
+            self.skipTest('no ~truth_topic')
+        truth = {m.header.stamp: m for m in self.truth}
+        latest = {m.header.stamp: m for m in self.depth}  # a refined depth map replaces the first
+        errors = []
+        for stamp, depth in latest.items():
+            self.assertIn(stamp, truth)
+            errors += relative_errors(depth, truth[stamp])
+        errors.sort()
+        self.assertGreater(len(errors), 1000)
+        median = errors[len(errors) // 2]
+        within = 100.0 * sum(1 for e in errors if e <= 0.10) / len(errors)
+        rospy.loginfo('check_map: %d depth images vs %s: median relative error %.2f %%, %.1f %% within 5 %%, '
+                      '%.1f %% within 10 %% over %d pixels', len(latest), self.truth_topic, 100 * median,
+                      100.0 * sum(1 for e in errors if e <= 0.05) / len(errors), within, len(errors))
+        self.assertLessEqual(median, self.max_median_error)
+        self.assertGreaterEqual(within, self.min_within_10pct)
+
+
+def relative_errors(depth, truth):
+    """|depth - truth| / truth where both are finite and > 0; the truth
+    sampled at the nearest pixel centre when its size differs."""
+    values = struct.unpack('<%df' % (depth.width * depth.height), bytes(depth.data))
+    reference = struct.unpack('<%df' % (truth.width * truth.height), bytes(truth.data))
+    errors = []
+    for v in range(depth.height):
+        tv = min(int((v + 0.5) * truth.height / depth.height), truth.height - 1)
+        for u in range(depth.width):
+            d = values[v * depth.width + u]
+            t = reference[tv * truth.width + min(int((u + 0.5) * truth.width / depth.width), truth.width - 1)]
+            if d > 0 and t > 0 and math.isfinite(d) and math.isfinite(t):
+                errors.append(abs(d - t) / t)
+    return errors
 
 
 if __name__ == '__main__':
