@@ -13,6 +13,7 @@
 #include "amhmvs_mapping/eval/cloud_metrics.h"
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"
+#include "tool_options.h"
 #include "amhmvs_mapping/io/point_cloud_io.h"
 #include "tool_main.h"
 
@@ -73,26 +74,21 @@ int run(const std::vector<std::string>& args) {
   std::vector<double> thresholds = {0.01, 0.02, 0.05};
   int stride = 1;
   for (size_t i = 1; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (i + 1 >= args.size()) throw InputError("option " + a + " needs a value");
-    const std::string& value = args[++i];
-    if (a == "--gt_cloud") {
+    std::string name, value;
+    amhmvs::nextOption(args, &i, {}, &name, &value);
+    if (name == "gt_cloud") {
       gt_cloud = value;
-    } else if (a == "--gt_depth_dir") {
+    } else if (name == "gt_depth_dir") {
       gt_depth_dir = value;
-    } else if (a == "--cams") {
+    } else if (name == "cams") {
       cams = value;
-    } else if (a == "--thresholds") {
+    } else if (name == "thresholds") {
       thresholds = parseThresholds(value);
-    } else if (a == "--stride") {
-      char* end = nullptr;
-      const long s = std::strtol(value.c_str(), &end, 10);
-      if (value.empty() || *end != '\0' || s < 1 || s > 100000) {
-        throw InputError("option --stride: '" + value + "' is not a positive integer");
-      }
-      stride = static_cast<int>(s);
+    } else if (name == "stride") {
+      stride = amhmvs::parseValue<int>(name, value);
+      if (stride < 1 || stride > 100000) throw InputError("option --stride: '" + value + "' is not in 1..100000");
     } else {
-      throw InputError("unknown option " + a + " (see --help)");
+      throw InputError("unknown option --" + name + " (see --help)");
     }
   }
   if (gt_cloud.empty() == gt_depth_dir.empty()) {

@@ -17,6 +17,7 @@
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"
 #include "synthetic_problem.h"
+#include "tool_options.h"
 
 namespace amhmvs {
 namespace {
@@ -63,15 +64,14 @@ int run(const std::vector<std::string>& args) {
   int views = 8, width = 320, height = 240;
   uint32_t seed = 1;
   for (size_t i = 1; i < args.size(); ++i) {
-    if (i + 1 >= args.size()) throw InputError("option " + args[i] + " needs a value");
-    const std::string& name = args[i];
-    const std::string& value = args[++i];
-    if (name == "--scene") scene = value;
-    else if (name == "--views") views = std::stoi(value);
-    else if (name == "--width") width = std::stoi(value);
-    else if (name == "--height") height = std::stoi(value);
-    else if (name == "--seed") seed = static_cast<uint32_t>(std::stoul(value));
-    else throw InputError("unknown option " + name);
+    std::string name, value;
+    nextOption(args, &i, {}, &name, &value);
+    if (name == "scene") scene = value;
+    else if (name == "views") views = parseValue<int>(name, value);
+    else if (name == "width") width = parseValue<int>(name, value);
+    else if (name == "height") height = parseValue<int>(name, value);
+    else if (name == "seed") seed = parseValue<uint32_t>(name, value);
+    else throw InputError("unknown option --" + name + " (see --help)");
   }
   if (views < 2 || views > 1000) throw InputError("--views must be in 2..1000");
   if (width < 16 || height < 16 || width > 8192 || height > 8192) {

@@ -117,5 +117,24 @@ TEST(SyntheticSequence, SameSeedSameFilesOtherSeedOtherScene) {
   }
 }
 
+// The shared option parser of the tools (tool_options.h): values are parsed
+// whole, unknown options and missing values are named.
+TEST(SyntheticSequence, BadOptionsAreClearErrors) {
+  const std::string out = ::testing::TempDir() + "/synthetic_bad_options";
+  const struct {
+    const char* options;
+    const char* message;
+  } cases[] = {{"--views 3abc", "option --views: '3abc' is not a valid value"},
+               {"--bogus 1", "unknown option --bogus"},
+               {"--seed", "option --seed needs a value"},
+               {"--views=1", "--views must be in 2..1000"}};
+  for (const auto& c : cases) {
+    const test::CommandResult r =
+        test::runCommand(std::string(AMHMVS_TOOLS_DIR) + "/amhmvs_synthetic " + out + " " + c.options);
+    EXPECT_EQ(r.exit_code, 1) << c.options << ": " << r.output;
+    EXPECT_NE(r.output.find(c.message), std::string::npos) << c.options << ": " << r.output;
+  }
+}
+
 }  // namespace
 }  // namespace amhmvs
