@@ -241,16 +241,14 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
       start = Clock::now();
       noteEvicted(store_.attachPoints(id, fused.points), result);
       result->times.store_ms += millisecondsSince(start);
-    }
-    start = Clock::now();
-    if (!fused.points.empty()) {
+      start = Clock::now();
       addToMap(id, fused.points);  // replaces
     } else {
+      start = Clock::now();
       finishMapWork();
       if (map_.contains(id)) {
         map_.removeKeyframe(id);  // the refined depth map confirms nothing of the old points
-        map_voxel_count_ = map_.voxelCount();
-        ++map_revision_;
+        noteMapChanged();
       }
     }
     result->times.map_ms += millisecondsSince(start);
@@ -270,14 +268,19 @@ void OnlineMapper::addToMap(int64_t id, KeyframePoints points) {
     record.milliseconds = millisecondsSince(start);
     return record;
   };
-  ++map_revision_;
   if (options_.map_in_background) {
     if (!map_worker_) map_worker_.reset(new SerialWorker());
     map_work_ = map_worker_->submit(std::move(update));
+    ++map_revision_;  // the voxel count follows when the update finishes
   } else {
     finished_map_updates_.push_back(update());
-    map_voxel_count_ = map_.voxelCount();
+    noteMapChanged();
   }
+}
+
+void OnlineMapper::noteMapChanged() {
+  map_voxel_count_ = map_.voxelCount();
+  ++map_revision_;
 }
 
 void OnlineMapper::finishMapWork() const {
@@ -341,8 +344,7 @@ bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_wor
   finishMapWork();
   if (!map_.contains(id)) return stored;
   map_.updatePose(id, camera_to_world);
-  map_voxel_count_ = map_.voxelCount();
-  ++map_revision_;
+  noteMapChanged();
   return true;
 }
 
@@ -360,8 +362,7 @@ void OnlineMapper::reset() {
   }
   finished_map_updates_.clear();
   map_ = VoxelMap(options_.map);
-  map_voxel_count_ = 0;
-  ++map_revision_;
+  noteMapChanged();
 }
 
 void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
@@ -380,8 +381,7 @@ void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
       rebuilt.addKeyframe(id, map_.pose(id), store_.entry(id).points);
     }
     map_ = std::move(rebuilt);
-    map_voxel_count_ = map_.voxelCount();
-    ++map_revision_;
+    noteMapChanged();
   }
   kept.map = map_.options();
   options_ = kept;

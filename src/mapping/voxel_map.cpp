@@ -276,18 +276,17 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
                                 const KeyframePoints& points) {
   VoxelMapUpdate update;
   const size_t n = points.size();
-  std::vector<PlacedPoint>& all = scratch_.placed;
+  std::vector<PlacedPoint>& placed = scratch_.placed;
   std::vector<uint8_t>& valid = scratch_.valid;
-  all.resize(n);
+  placed.resize(n);
   valid.resize(n);
 #pragma omp parallel for if (n > 20000)
-  for (size_t i = 0; i < n; ++i) valid[i] = place(camera_to_world, points[i], &all[i]);
+  for (size_t i = 0; i < n; ++i) valid[i] = place(camera_to_world, points[i], &placed[i]);
 
   // The usable points, compacted in place (order kept).
-  KeyframeContribution contribution;
-  std::vector<PlacedPoint>& placed = all;
+  KeyframePoints accepted;
   size_t count = 0;
-  contribution.points.reserve(n);
+  accepted.reserve(n);
   for (size_t i = 0; i < n; ++i) {
     if (!valid[i]) {
       ++update.skipped_invalid;
@@ -297,15 +296,15 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
       ++update.dropped_over_budget;
       continue;
     }
-    PlacedPoint& p = placed[count++] = all[i];
+    PlacedPoint& p = placed[count++] = placed[i];
     const bool inside = (p.world.array() >= options_.region_min.array()).all() &&
                         (p.world.array() <= options_.region_max.array()).all();
     if (!inside) p.key = kOutsideRegion;
-    contribution.points.push_back(points[i]);
+    accepted.push_back(points[i]);
   }
   placed.resize(count);
   KeyframeSums& sums = scratch_.sums;
-  sumPerVoxel(placed, contribution.points, &sums);
+  sumPerVoxel(placed, accepted, &sums);
   std::vector<VoxelSums>& voxels = sums.voxels;
 
   // Make room: oldest keyframes first, until the points, the keyframe and its
@@ -330,13 +329,13 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
     for (VoxelSums& entry : voxels) by_first_point.push_back(&entry);
     std::sort(by_first_point.begin(), by_first_point.end(),
               [](const VoxelSums* a, const VoxelSums* b) { return a->first_point < b->first_point; });
-    size_t count = voxelCount();
+    size_t voxels_after = voxelCount();
     for (VoxelSums* entry : by_first_point) {
       if (shard(entry->key).count(entry->key)) continue;
-      if (count >= options_.max_voxels) {
+      if (voxels_after >= options_.max_voxels) {
         entry->dropped = true;
       } else {
-        ++count;
+        ++voxels_after;
       }
     }
   }
@@ -347,7 +346,7 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
   kept.camera_to_world = camera_to_world;
   kept.keys.reserve(placed.size());
   const bool any_dropped = std::any_of(voxels.begin(), voxels.end(), [](const VoxelSums& v) { return v.dropped; });
-  if (!any_dropped) kept.points = std::move(contribution.points);  // the usual case: no second copy
+  if (!any_dropped) kept.points = std::move(accepted);  // the usual case: no second copy
   for (size_t i = 0; i < placed.size(); ++i) {
     const int32_t slot = sums.voxel_of_point[i];
     if (slot >= 0 && voxels[slot].dropped) {
@@ -359,7 +358,7 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
     } else {
       ++update.outside_region;
     }
-    if (any_dropped) kept.points.push_back(contribution.points[i]);
+    if (any_dropped) kept.points.push_back(accepted[i]);
     kept.keys.push_back(placed[i].key);
   }
   points_outside_region_ += update.outside_region;

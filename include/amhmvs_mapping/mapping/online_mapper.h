@@ -248,6 +248,8 @@ class OnlineMapper {
 
   // Adds fused points to the map, in the background when so configured.
   void addToMap(int64_t id, KeyframePoints points);
+  // After a change of the map in this thread: its voxel count and revision.
+  void noteMapChanged();
 
   OnlineMapperOptions options_;
   EstimateFunction estimate_;
