@@ -30,6 +30,8 @@ struct GpuSourceView {
 // Reference image from global memory (exact integer reads), sources from the
 // layered texture (hardware bilinear filtering).
 struct GpuSampler {
+  static constexpr int kLanes = 1;  // matching costs one at a time (CostBatch)
+
   const uint8_t* reference_pixels;
   int width, height;
   cudaTextureObject_t sources;

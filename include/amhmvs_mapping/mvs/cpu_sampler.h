@@ -12,7 +12,9 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/image.h"
+#include "amhmvs_mapping/mvs/cpu_lanes.h"
 #include "amhmvs_mapping/mvs/hd.h"
+#include "amhmvs_mapping/mvs/matching_cost.h"
 
 namespace amhmvs {
 namespace mvs {
@@ -93,7 +95,40 @@ struct CpuSourceView {
   }
 };
 
+// kCpuLanes source images, one per lane: textureBilinear lane by lane, with
+// the same integer weights (computed exactly in float) and the same sums.
+struct CpuSourceLanes {
+  BytePairGather texels;
+  FloatLanes max_x, max_y;
+
+  FloatLanes sample(FloatLanes x, FloatLanes y) const {
+    // As CpuSourceView::sample: NaN reads the low edge.
+    x = clampLanes(x, -kCoordinateMargin, max_x);
+    y = clampLanes(y, -kCoordinateMargin, max_y);
+    const IntLanes qx = truncateToInt(x * 256.0f + (kFixedPointOffset + 0.5f)) - kFixedPointOffset;
+    const IntLanes qy = truncateToInt(y * 256.0f + (kFixedPointOffset + 0.5f)) - kFixedPointOffset;
+    const FloatLanes a = toFloat(qx & 255), b = toFloat(qy & 255);
+    // Products below 2^17 and their quotients by 256 are exact in float; adding
+    // and subtracting 1.5 * 2^23 rounds to an integer, half to even.
+    auto weight = [](FloatLanes product) {
+      const float kRound = 12582912.0f;
+      return (product * (1.0f / 256.0f) + kRound) - kRound;
+    };
+    const FloatLanes w00 = weight((256.0f - a) * (256.0f - b)), w10 = weight(a * (256.0f - b));
+    const FloatLanes w01 = weight((256.0f - a) * b), w11 = weight(a * b);
+    IntLanes top{}, bottom{};  // texel pairs (x, x + 1) of rows y and y + 1, 8 bits each
+    texels.gather(qx >> 8, qy >> 8, &top, &bottom);
+    // Integer products and sums below 2^24: exact in float, as in textureBilinear.
+    const FloatLanes sum = w00 * toFloat(top & 255) + w10 * toFloat(top >> 8) +
+                           w01 * toFloat(bottom & 255) + w11 * toFloat(bottom >> 8);
+    return sum * (1.0f / 256.0f);
+  }
+};
+
 struct CpuSampler {
+  // Matching costs are scored kCpuLanes at a time (see CostBatch).
+  static constexpr int kLanes = kCpuLanes;
+
   ImageViewU8 reference_image;
   const PaddedImage8* sources[32];
 
@@ -107,6 +142,30 @@ struct CpuSampler {
     const PaddedImage8& image = *sources[view];
     return {image.origin, image.stride, image.width + kCoordinateMargin,
             image.height + kCoordinateMargin};
+  }
+
+  // Costs of kCpuLanes (geometry, plane term) pairs in one pass over the
+  // window: the scalar windowCost's arithmetic in each lane.
+  template <class Window, class Samples>
+  void laneCosts(const CostParams& p, const ReferenceWindowT<Samples>& win,
+                 const SourceGeometry* const* geometry, const Vec3* q, int x, int y,
+                 float* costs) const {
+    WindowHomography<FloatLanes> H;
+    CpuSourceLanes view;
+    for (int l = 0; l < kCpuLanes; ++l) {
+      const WindowHomography<float> h = windowHomography(*geometry[l], q[l]);
+      for (int k = 0; k < 9; ++k) H.h[k][l] = h.h[k];
+      H.width[l] = h.width;
+      H.height[l] = h.height;
+      const CpuSourceView source = sourceView(geometry[l]->layer);
+      const PaddedImage8& image = *sources[geometry[l]->layer];
+      view.texels.setLane(l, source.origin, source.stride, image.height + kPadding);
+      view.max_x[l] = source.max_x;
+      view.max_y[l] = source.max_y;
+    }
+    view.texels.finish();
+    const FloatLanes c = windowCost<Window>(view, p, win, H, x, y);
+    for (int l = 0; l < kCpuLanes; ++l) costs[l] = c[l];
   }
 };
 

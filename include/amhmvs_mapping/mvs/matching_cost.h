@@ -146,45 +146,87 @@ AMHMVS_HD Vec3 planeTerm(const Intrinsics& k, const Plane& plane) {
           (plane.n.z - plane.n.x * k.cx / k.fx - plane.n.y * k.cy / k.fy) * inv_d};
 }
 
-// Cost of hypothesis `plane` at reference pixel (x, y) against the source view
-// of geometry `g` (its image: sampler.sourceView(g.layer)).
-// kMaxCost when either window is textureless, when the window centre maps
-// outside the source image, or when the point is behind the source camera.
-template <class Window, class Sampler, class Samples>
-AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
-                             const ReferenceWindowT<Samples>& win, const SourceGeometry& g,
-                             Vec3 q, int x, int y) {
-  if (!win.textured) return kMaxCost;
-  const Window shape(p);
-  // Rows of H = A - b q^T.
-  const Vec3 h0 = {g.A.m[0] - g.b.x * q.x, g.A.m[1] - g.b.x * q.y, g.A.m[2] - g.b.x * q.z};
-  const Vec3 h1 = {g.A.m[3] - g.b.y * q.x, g.A.m[4] - g.b.y * q.y, g.A.m[5] - g.b.y * q.z};
-  const Vec3 h2 = {g.A.m[6] - g.b.z * q.x, g.A.m[7] - g.b.z * q.y, g.A.m[8] - g.b.z * q.z};
-  const Vec3 pc = {static_cast<float>(x), static_cast<float>(y), 1.0f};
-  const float cz = dot(h2, pc);
-  if (!(cz > 0.0f)) return kMaxCost;  // behind the source camera
-  const float cu = dot(h0, pc) / cz, cv = dot(h1, pc) / cz;
-  if (!(cu >= -0.5f && cv >= -0.5f && cu < g.width - 0.5f && cv < g.height - 0.5f)) {
-    return kMaxCost;
+// Per-lane operations of the float type F that windowCost runs on: here
+// F = float (GPU, scalar CPU); cpu_lanes.h specialises it for the CPU's SIMD
+// lanes. Masks are what F's comparisons return.
+template <class F>
+struct LaneMath;
+
+template <>
+struct LaneMath<float> {
+  static AMHMVS_HD float splat(float v) { return v; }
+  static AMHMVS_HD bool any(bool mask) { return mask; }
+  static AMHMVS_HD float select(bool mask, float a, float b) { return mask ? a : b; }
+  static AMHMVS_HD float reciprocal(float x) { return mvs::reciprocal(x); }
+  static AMHMVS_HD float sqrt(float x) { return sqrtf(x); }
+};
+
+template <class F>
+AMHMVS_HD F dot3(F a0, F a1, F a2, float b0, float b1, float b2) {
+  return a0 * b0 + a1 * b1 + a2 * b2;
+}
+
+// The plane-induced homography H = A - b q^T (row-major) of one source view
+// and hypothesis, with that view's size. F = float, or on the CPU one
+// (hypothesis, view) pair per lane.
+template <class F>
+struct WindowHomography {
+  F h[9];
+  F width, height;
+};
+
+AMHMVS_HD WindowHomography<float> windowHomography(const SourceGeometry& g, Vec3 q) {
+  const float b[3] = {g.b.x, g.b.y, g.b.z};
+  WindowHomography<float> H;
+  AMHMVS_UNROLL
+  for (int r = 0; r < 3; ++r) {
+    H.h[3 * r + 0] = g.A.m[3 * r + 0] - b[r] * q.x;
+    H.h[3 * r + 1] = g.A.m[3 * r + 1] - b[r] * q.y;
+    H.h[3 * r + 2] = g.A.m[3 * r + 2] - b[r] * q.z;
   }
+  H.width = g.width;
+  H.height = g.height;
+  return H;
+}
+
+// The cost of eq. 15 for a textured reference window `win` at pixel (x, y)
+// against the source window that H maps it to (its image: `source`).
+// kMaxCost when the window centre maps outside the source image, when the
+// point is behind the source camera, or when the source window is flat.
+template <class Window, class F, class SourceView, class Samples>
+AMHMVS_HD F windowCost(const SourceView& source, const CostParams& p,
+                       const ReferenceWindowT<Samples>& win, const WindowHomography<F>& H, int x,
+                       int y) {
+  using M = LaneMath<F>;
+  const Window shape(p);
+  const float px = static_cast<float>(x), py = static_cast<float>(y);
+  const F cz = dot3(H.h[6], H.h[7], H.h[8], px, py, 1.0f);
+  const auto in_front = cz > 0.0f;  // else behind the source camera
+  if (!M::any(in_front)) return M::splat(kMaxCost);
+  const F cu = dot3(H.h[0], H.h[1], H.h[2], px, py, 1.0f) / cz;
+  const F cv = dot3(H.h[3], H.h[4], H.h[5], px, py, 1.0f) / cz;
+  const auto valid = in_front && (cu >= -0.5f && cv >= -0.5f && cu < H.width - 0.5f &&
+                                  cv < H.height - 0.5f);
+  if (!M::any(valid)) return M::splat(kMaxCost);
   // Source samples are centred on the value at the window centre: keeps the
   // float moments accurate for weakly textured windows.
-  const auto source = sampler.sourceView(g.layer);
-  const float shift = source.sample(cu, cv);
-  float sum_s = 0.0f, sum_ss = 0.0f, sum_rs = 0.0f;
+  const F shift = source.sample(cu, cv);
+  F sum_s{}, sum_ss{}, sum_rs{};
   AMHMVS_UNROLL
   for (int iy = 0; iy < shape.perAxis(); ++iy) {
     const int dy = -shape.radius() + iy * shape.step();
     // Homogeneous source point of the row start, then stepped along x.
-    const Vec3 row = {pc.x - shape.radius(), pc.y + dy, 1.0f};
-    float hx = dot(h0, row), hy = dot(h1, row), hz = dot(h2, row);
-    const float step_x = h0.x * shape.step(), step_y = h1.x * shape.step(),
-                step_z = h2.x * shape.step();
+    const float row_x = px - shape.radius(), row_y = py + dy;
+    F hx = dot3(H.h[0], H.h[1], H.h[2], row_x, row_y, 1.0f);
+    F hy = dot3(H.h[3], H.h[4], H.h[5], row_x, row_y, 1.0f);
+    F hz = dot3(H.h[6], H.h[7], H.h[8], row_x, row_y, 1.0f);
+    const float step = static_cast<float>(shape.step());
+    const F step_x = H.h[0] * step, step_y = H.h[3] * step, step_z = H.h[6] * step;
     AMHMVS_UNROLL
     for (int ix = 0; ix < shape.perAxis(); ++ix) {
       const int i = iy * shape.perAxis() + ix;
-      const float inv_z = reciprocal(hz);
-      const float s = source.sample(hx * inv_z, hy * inv_z) - shift;
+      const F inv_z = M::reciprocal(hz);
+      const F s = source.sample(hx * inv_z, hy * inv_z) - shift;
       const WindowSample r = win.sample[i];
       sum_s += r.weight * s;
       sum_ss += r.weight * s * s;
@@ -194,13 +236,92 @@ AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
       hz += step_z;
     }
   }
-  const float var_s = sum_ss - sum_s * sum_s;
-  if (!(var_s >= kMinVariance)) return kMaxCost;
-  const float covariance = sum_rs - win.mean * sum_s;
-  const float ncc = covariance / sqrtf(win.variance * var_s);
-  const float cost = 1.0f - ncc;
-  return cost < 0.0f ? 0.0f : (cost < kMaxCost ? cost : kMaxCost);
+  const F var_s = sum_ss - sum_s * sum_s;
+  const auto scored = valid && var_s >= kMinVariance;
+  if (!M::any(scored)) return M::splat(kMaxCost);
+  const F covariance = sum_rs - win.mean * sum_s;
+  const F ncc = covariance / M::sqrt(win.variance * var_s);
+  const F cost = 1.0f - ncc;
+  const F max_cost = M::splat(kMaxCost);
+  const F clamped =
+      M::select(cost < 0.0f, M::splat(0.0f), M::select(cost < kMaxCost, cost, max_cost));
+  return M::select(scored, clamped, max_cost);
 }
+
+// Cost of hypothesis `plane` (plane term q = planeTerm(K, plane)) at
+// reference pixel (x, y) against the source view of geometry `g` (its image:
+// sampler.sourceView(g.layer)). kMaxCost also when the reference window is
+// textureless.
+template <class Window, class Sampler, class Samples>
+AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
+                             const ReferenceWindowT<Samples>& win, const SourceGeometry& g,
+                             Vec3 q, int x, int y) {
+  if (!win.textured) return kMaxCost;
+  return windowCost<Window>(sampler.sourceView(g.layer), p, win, windowHomography(g, q), x, y);
+}
+
+// The matching costs one pixel needs, evaluated as its sampler prefers: each
+// at once (Sampler::kLanes == 1: the GPU, where a thread per pixel already
+// fills the machine), or Sampler::kLanes per pass over the window (the CPU's
+// SIMD lanes, see CpuSampler::laneCosts). add() may write its result only at
+// the next add() or flush().
+template <class Window, class Sampler, class Samples, int kLanes = Sampler::kLanes>
+class CostBatch {
+ public:
+  CostBatch(const Sampler& sampler, const CostParams& p, const ReferenceWindowT<Samples>& win,
+            int x, int y)
+      : sampler_(sampler), p_(p), win_(win), x_(x), y_(y) {}
+
+  void add(const SourceGeometry& g, Vec3 q, float* out) {
+    if (!win_.textured) {
+      *out = kMaxCost;
+      return;
+    }
+    geometry_[count_] = &g;
+    q_[count_] = q;
+    out_[count_] = out;
+    if (++count_ == kLanes) flush();
+  }
+  void flush() {
+    if (count_ == 0) return;
+    for (int l = count_; l < kLanes; ++l) {  // idle lanes repeat lane 0
+      geometry_[l] = geometry_[0];
+      q_[l] = q_[0];
+    }
+    float costs[kLanes];
+    sampler_.template laneCosts<Window>(p_, win_, geometry_, q_, x_, y_, costs);
+    for (int l = 0; l < count_; ++l) *out_[l] = costs[l];
+    count_ = 0;
+  }
+
+ private:
+  const Sampler& sampler_;
+  const CostParams& p_;
+  const ReferenceWindowT<Samples>& win_;
+  int x_, y_;
+  int count_ = 0;
+  const SourceGeometry* geometry_[kLanes];
+  Vec3 q_[kLanes];
+  float* out_[kLanes];
+};
+
+template <class Window, class Sampler, class Samples>
+class CostBatch<Window, Sampler, Samples, 1> {
+ public:
+  AMHMVS_HD CostBatch(const Sampler& sampler, const CostParams& p,
+                      const ReferenceWindowT<Samples>& win, int x, int y)
+      : sampler_(sampler), p_(p), win_(win), x_(x), y_(y) {}
+  AMHMVS_HD void add(const SourceGeometry& g, Vec3 q, float* out) {
+    *out = matchingCost<Window>(sampler_, p_, win_, g, q, x_, y_);
+  }
+  AMHMVS_HD void flush() {}
+
+ private:
+  const Sampler& sampler_;
+  const CostParams& p_;
+  const ReferenceWindowT<Samples>& win_;
+  int x_, y_;
+};
 
 }  // namespace mvs
 }  // namespace amhmvs

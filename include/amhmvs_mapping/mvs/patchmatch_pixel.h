@@ -113,9 +113,9 @@ AMHMVS_HD void initializePixel(const PatchMatchParams& P, const Sampler& sampler
   computeReferenceWindow<Window>(sampler, P.cost, x, y, &win);
   const Vec3 q = planeTerm(P.K, plane);
   float costs[32];
-  for (int j = 0; j < P.num_sources; ++j) {
-    costs[j] = matchingCost<Window>(sampler, P.cost, win, P.sources[j], q, x, y);
-  }
+  CostBatch<Window, Sampler, Samples> batch(sampler, P.cost, win, x, y);
+  for (int j = 0; j < P.num_sources; ++j) batch.add(P.sources[j], q, &costs[j]);
+  batch.flush();
   ViewWeights heuristic;
   heuristic.heuristic = true;
   state.plane[index] = plane;
@@ -151,11 +151,35 @@ AMHMVS_HD float scoreHypothesis(const PatchMatchParams& P, const SourceGeometry*
                                 const Plane& plane, int x, int y) {
   const Vec3 q = planeTerm(P.K, plane);
   float costs[32];
+  CostBatch<Window, Sampler, Samples> batch(sampler, P.cost, win, x, y);
   for (int k = 0; k < views.count; ++k) {
     const int j = views.view[k];
-    costs[j] = matchingCost<Window>(sampler, P.cost, win, sources[j], q, x, y);
+    batch.add(sources[j], q, &costs[j]);
   }
+  batch.flush();
   return aggregateCost(P.selection, weights, costs, P.num_sources);
+}
+
+// scoreHypothesis of `count` (<= 8) planes, their costs evaluated together
+// (for samplers with SIMD lanes).
+template <class Window, class Sampler, class Samples>
+AMHMVS_HD void scoreHypotheses(const PatchMatchParams& P, const SourceGeometry* sources,
+                               const Sampler& sampler, const ReferenceWindowT<Samples>& win,
+                               const ViewWeights& weights, const ViewList& views,
+                               const Plane* planes, int count, int x, int y, float* scores) {
+  float costs[8][32];
+  CostBatch<Window, Sampler, Samples> batch(sampler, P.cost, win, x, y);
+  for (int c = 0; c < count; ++c) {
+    const Vec3 q = planeTerm(P.K, planes[c]);
+    for (int k = 0; k < views.count; ++k) {
+      const int j = views.view[k];
+      batch.add(sources[j], q, &costs[c][j]);
+    }
+  }
+  batch.flush();
+  for (int c = 0; c < count; ++c) {
+    scores[c] = aggregateCost(P.selection, weights, costs[c], P.num_sources);
+  }
 }
 
 // Propagation (section 3.1): per region, the candidate of lowest current cost.
@@ -213,13 +237,13 @@ AMHMVS_HD void costMatrix(const PatchMatchParams& P, const SourceGeometry* sourc
     first[i] = firstEqualPlane(hypotheses, i);
     if (first[i] == i) distinct[num_distinct++] = i;
   }
+  CostBatch<Window, Sampler, Samples> batch(sampler, P.cost, win, x, y);
   for (int k = 0; k < num_distinct; ++k) {
     const int i = distinct[k];
     const Vec3 q = planeTerm(P.K, hypotheses[i]);
-    for (int j = 0; j < n; ++j) {
-      matrix[i * n + j] = matchingCost<Window>(sampler, P.cost, win, sources[j], q, x, y);
-    }
+    for (int j = 0; j < n; ++j) batch.add(sources[j], q, &matrix[i * n + j]);
   }
+  batch.flush();
   for (int i = 0; i < rows; ++i) {
     if (first[i] == i) continue;
     for (int j = 0; j < n; ++j) matrix[i * n + j] = matrix[first[i] * n + j];
@@ -311,7 +335,28 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const SourceGeometry* sour
     const Vec3 n_random = randomNormal(P, ray, &rng);
     const float depths[5] = {z_perturbed, z, z_random, z, z_perturbed};
     const Vec3 normals[5] = {n, n_perturbed, n, n_random, n_perturbed};
-    for (int c = 0; c < 5; ++c) tryHypothesis(depths[c], normals[c]);
+    if constexpr (Sampler::kLanes == 1) {
+      for (int c = 0; c < 5; ++c) tryHypothesis(depths[c], normals[c]);
+    } else {
+      // SIMD lanes (CPU): the five do not depend on each other's outcome, so
+      // they are scored together, then tried in the same order.
+      Plane candidates[5];
+      float candidate_depths[5], scores[5];
+      int held = 0;
+      for (int c = 0; c < 5; ++c) {
+        candidates[held] = planeFromDepthNormal(normals[c], depths[c], ray);
+        if (acceptableHypothesis(P, candidates[held], ray, &candidate_depths[held])) ++held;
+      }
+      scoreHypotheses<Window>(P, sources, sampler, win, weights, views, candidates, held, x, y,
+                              scores);
+      for (int c = 0; c < held; ++c) {
+        if (scores[c] < cost) {
+          cost = scores[c];
+          plane = candidates[c];
+          depth = candidate_depths[c];
+        }
+      }
+    }
   }
 
   state.plane[index] = plane;
