@@ -8,7 +8,8 @@
 //
 // usage: amhmvs_benchmark [DATA_DIR] [--out FILE] [--runs N] [--cpu-threads N] [--quick]
 //                         [--only SCENE[,SCENE...]]  (fountain_x0.25 ... fountain_x1,
-//                                           synthetic, scaling, cpu, fusion, pipeline, replay)
+//                                           synthetic, scaling, cpu, cpu-scaling, fusion,
+//                                           pipeline, replay)
 //                         [--replay N]     keyframes of the memory replay (10000)
 //                         [--map-foreground] the replay updates the voxel map in its own thread
 //
@@ -19,7 +20,9 @@
 //             sources: keyframes per second end to end and the median stages;
 //   replay:   N keyframes of 160x120 through one pipeline; host RSS and
 //             device memory every N/10 keyframes (must stay flat).
-// The scaling rows time the synthetic scene at 4 sizes x 3 source counts.
+// The scaling rows time the synthetic scene at 4 sizes x 3 source counts; the
+// cpu rows the CPU backend at 320x240 and 640x480 (4 sources, --cpu-threads),
+// the cpu-scaling rows 320x240 at 1, 2, 4 and 8 threads (up to the core count).
 // DATA_DIR holds mvsnet/fountain_x0.25, fountain_x0.5, fountain_x1 dense
 // folders with decodable images (see scripts/prepare_gpu_data.py); rows whose
 // folder is missing are skipped.
@@ -354,9 +357,30 @@ std::string replayTable(int count, bool map_in_background) {
   return out.str();
 }
 
+int hardwareThreads() {
+#ifdef _OPENMP
+  return omp_get_num_procs();
+#else
+  return 1;
+#endif
+}
+
+// "model name" of /proc/cpuinfo and the core count, for the CPU rows.
+std::string cpuDescription() {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  std::string line, model = "unknown CPU";
+  while (std::getline(cpuinfo, line)) {
+    if (line.rfind("model name", 0) == 0 && line.find(':') != std::string::npos) {
+      model = line.substr(line.find(':') + 2);
+      break;
+    }
+  }
+  return model + ", " + std::to_string(hardwareThreads()) + " hardware threads";
+}
+
 std::string renderTables(const std::string& device, const std::vector<Row>& rows, const std::string& online) {
   std::ostringstream table;
-  table << "device: " << device << "\n\n"
+  table << "device: " << device << "\n\nCPU: " << cpuDescription() << "\n\n"
         << "| scene | size | sources | iterations | backend | median ms | min ms | "
            "with upload ms | ns / (pixel x source x iteration) | GPU MiB |\n"
         << "|---|---|---|---|---|---|---|---|---|---|\n";
@@ -435,8 +459,18 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "scaling done\n");
     }
     if (wants("cpu")) {
+      for (const auto& size : {std::make_pair(320, 240), std::make_pair(640, 480)}) {
+        const SyntheticProblem p = makeSyntheticProblem(size.first, size.second, 4);
+        rows.push_back(measure("synthetic", p.problem, Backend::kCpu, 6, quick ? 1 : runs, cpu_threads));
+      }
+    }
+    if (wants("cpu-scaling")) {
+      // The CPU backend at 1, 2, 4, 8 threads, as far as the machine has cores.
       const SyntheticProblem qvga = makeSyntheticProblem(320, 240, 4);
-      rows.push_back(measure("synthetic", qvga.problem, Backend::kCpu, 6, quick ? 1 : runs, cpu_threads));
+      for (int threads : {1, 2, 4, 8}) {
+        if (threads > hardwareThreads()) break;
+        rows.push_back(measure("cpu-scaling", qvga.problem, Backend::kCpu, 6, quick ? 1 : runs, threads));
+      }
     }
 #ifdef _OPENMP
     omp_set_num_threads(omp_get_num_procs());  // the online tables use every core
