@@ -142,7 +142,8 @@ void runPatchMatch(const PatchMatchParams& P, const GpuSampler& sampler, PixelSt
   const dim3 half_grid = gridFor((P.width + 1) / 2, P.height);
   for (int iteration = 0; iteration < iterations; ++iteration) {
     for (int colour = 0; colour < 2; ++colour) {
-      updateKernel<Window><<<half_grid, block, 0, stream>>>(P, sampler, state, iteration, colour);
+      updateKernel<Window><<<half_grid, block, 0, stream>>>(P, sampler, state, P.first_iteration + iteration,
+                                                            colour);
       AMHMVS_CUDA_CHECK_LAUNCH();
     }
   }
@@ -188,6 +189,8 @@ struct WorkBuffers {
   cuda::DeviceBuffer<uint32_t> selected;
   cuda::DeviceBuffer<int8_t> best_view;
   cuda::DeviceBuffer<float> raw_depth, depth, normal, cost;
+  // Geometric pass only: source depth maps, prior depth and normals.
+  cuda::DeviceBuffer<float> source_depths, prior_depth, prior_normal;
 
   void reserve(size_t pixels) {
     reference.reserve(pixels);
@@ -202,7 +205,8 @@ struct WorkBuffers {
   }
   size_t bytes() const {
     return reference.bytes() + planes.bytes() + costs.bytes() + selected.bytes() + best_view.bytes() +
-           raw_depth.bytes() + depth.bytes() + normal.bytes() + cost.bytes();
+           raw_depth.bytes() + depth.bytes() + normal.bytes() + cost.bytes() + source_depths.bytes() +
+           prior_depth.bytes() + prior_normal.bytes();
   }
 };
 
@@ -270,6 +274,21 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
     state.start.record(stream);
     work.reserve(pixels);
     placeImages(state, problem, &P);
+    // Host buffers live until the stream is synchronised below.
+    const std::vector<float> source_depths = concatenateSourceDepths(problem, &P);
+    if (!source_depths.empty()) {
+      work.source_depths.reserve(source_depths.size());
+      work.source_depths.uploadAsync(source_depths.data(), source_depths.size(), stream);
+      P.source_depths = work.source_depths.get();
+    }
+    if (problem.prior_depth.data) {
+      work.prior_depth.reserve(pixels);
+      work.prior_normal.reserve(3 * pixels);
+      work.prior_depth.uploadAsync(problem.prior_depth.data, pixels, stream);
+      work.prior_normal.uploadAsync(problem.prior_normal.data, 3 * pixels, stream);
+      P.prior_depth = work.prior_depth.get();
+      P.prior_normal = work.prior_normal.get();
+    }
     const PixelState pixel_state{work.planes.get(), work.costs.get(), work.selected.get(), work.best_view.get()};
     const GpuSampler sampler{work.reference.get(), width, height, state.pool.texture()};
     state.uploaded.record(stream);

@@ -11,6 +11,10 @@ namespace mvs {
 PatchMatchParams makePatchMatchParams(const PatchMatchOptions& options,
                                       const DepthProblem& problem);
 
+// The source depth maps of `problem` in one buffer (geometric term); sets
+// each source's depth_offset in `P` (-1 stays where a source has none).
+std::vector<float> concatenateSourceDepths(const DepthProblem& problem, PatchMatchParams* P);
+
 DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams& params,
                        const DepthProblem& problem);
 // Device state of one estimator: image pool, work buffers, stream.

@@ -23,7 +23,7 @@ void runPatchMatch(const PatchMatchParams& P, const CpuSampler& sampler, PixelSt
 #pragma omp parallel for schedule(dynamic, 4)
       for (int y = 0; y < height; ++y) {
         for (int x = (y + colour) & 1; x < width; x += 2) {
-          updatePixel<Window>(P, P.sources, sampler, state, iteration, x, y);
+          updatePixel<Window>(P, P.sources, sampler, state, P.first_iteration + iteration, x, y);
         }
       }
     }
@@ -32,9 +32,16 @@ void runPatchMatch(const PatchMatchParams& P, const CpuSampler& sampler, PixelSt
 
 }  // namespace
 
-DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams& P,
+DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams& params,
                        const DepthProblem& problem) {
   const auto start = std::chrono::steady_clock::now();
+  PatchMatchParams P = params;
+  const std::vector<float> source_depths = concatenateSourceDepths(problem, &P);
+  P.source_depths = source_depths.data();
+  if (problem.prior_depth.data) {
+    P.prior_depth = problem.prior_depth.data;
+    P.prior_normal = problem.prior_normal.data;
+  }
   CpuSampler sampler{};
   sampler.reference_image = problem.reference_image;
   std::vector<std::unique_ptr<PaddedImage8>> padded;

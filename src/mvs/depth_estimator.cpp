@@ -59,6 +59,30 @@ std::string DepthProblem::validate() const {
       why << "source view " << i << ": same camera centre as the reference (no baseline)\n";
     }
   }
+  if (!source_depths.empty() && source_depths.size() != source_cameras.size()) {
+    why << source_depths.size() << " source depth maps for " << source_cameras.size()
+        << " source views (give none or one per source)\n";
+  }
+  for (size_t i = 0; i < std::min(source_depths.size(), source_cameras.size()); ++i) {
+    const ImageViewF& d = source_depths[i];
+    if (d.data != nullptr && (d.channels != 1 || !d.sameSize(source_cameras[i].width, source_cameras[i].height))) {
+      why << "source depth map " << i << ": " << d.width << "x" << d.height << "x" << d.channels
+          << " but its camera is " << source_cameras[i].width << "x" << source_cameras[i].height
+          << " (1 channel)\n";
+    }
+  }
+  const bool has_prior_depth = prior_depth.data != nullptr, has_prior_normal = prior_normal.data != nullptr;
+  if (has_prior_depth != has_prior_normal) {
+    why << "prior depth and prior normal map must be given together\n";
+  } else if (has_prior_depth &&
+             (prior_depth.channels != 1 || prior_normal.channels != 3 ||
+              !prior_depth.sameSize(reference_camera.width, reference_camera.height) ||
+              !prior_normal.sameSize(reference_camera.width, reference_camera.height))) {
+    why << "prior depth (" << prior_depth.width << "x" << prior_depth.height << "x" << prior_depth.channels
+        << ") and normal (" << prior_normal.width << "x" << prior_normal.height << "x" << prior_normal.channels
+        << ") maps must be 1 and 3 channels at the reference size " << reference_camera.width << "x"
+        << reference_camera.height << "\n";
+  }
   if (!(std::isfinite(depth_min) && std::isfinite(depth_max) && depth_min > 0 &&
         depth_max > depth_min)) {
     why << "depth range [" << depth_min << ", " << depth_max
@@ -89,6 +113,17 @@ std::string EstimatorResources::validate() const {
 namespace mvs {
 
 void CudaStateDeleter::operator()(CudaState* state) const { destroyCudaState(state); }
+
+std::vector<float> concatenateSourceDepths(const DepthProblem& problem, PatchMatchParams* P) {
+  std::vector<float> all;
+  for (size_t j = 0; j < problem.source_depths.size(); ++j) {
+    const ImageViewF& depth = problem.source_depths[j];
+    if (!depth.data) continue;  // that source has no depth map: full error
+    P->back[j].depth_offset = static_cast<long long>(all.size());
+    all.insert(all.end(), depth.data, depth.data + depth.pixelCount());
+  }
+  return all;
+}
 
 PatchMatchParams makePatchMatchParams(const PatchMatchOptions& o, const DepthProblem& problem) {
   PatchMatchParams p{};
@@ -122,7 +157,15 @@ PatchMatchParams makePatchMatchParams(const PatchMatchOptions& o, const DepthPro
     g.width = static_cast<float>(src.width);
     g.height = static_cast<float>(src.height);
     g.layer = j;  // the CPU sampler's index; the CUDA backend puts its pool slot here
+    const Eigen::Matrix3d A_inv = A.inverse();
+    for (int i = 0; i < 9; ++i) p.back[j].A_inv.m[i] = static_cast<float>(A_inv(i / 3, i % 3));
+    p.back[j].depth_offset = -1;  // set by the backend with the depth buffer
   }
+  p.first_iteration = o.first_iteration;
+  p.geometric = {!problem.source_depths.empty(), o.geometric_weight, o.geometric_max_error};
+  p.source_depths = nullptr;
+  p.prior_depth = p.prior_normal = nullptr;
+  p.unscored_cost = kMaxCost + (p.geometric.enabled ? o.geometric_weight * o.geometric_max_error : 0.0f);
   return p;
 }
 

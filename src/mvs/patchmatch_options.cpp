@@ -86,6 +86,10 @@ const std::vector<OptionInfo>& patchMatchOptionTable() {
       field("bisection_steps", &O::bisection_steps, "bisection samples per pixel and pass"),
       field("perturbation", &O::perturbation, "relative depth / normal perturbation of the COLMAP-style refinement"),
       field("max_normal_angle", &O::max_normal_angle_deg, "steepest accepted plane to the viewing ray, degrees"),
+      field("geometric_weight", &O::geometric_weight,
+            "geometric pass: cost per pixel of forward-backward reprojection error (not in the paper)"),
+      field("geometric_max_error", &O::geometric_max_error,
+            "geometric pass: reprojection error cap in pixels (not in the paper)"),
       field("median_filter", &O::median_filter_size, "median filter size on depth (paper: 4; 0 or 1: off)"),
   };
   return table;
@@ -125,6 +129,11 @@ std::string PatchMatchOptions::validate() const {
   require(std::isfinite(max_normal_angle_deg) && max_normal_angle_deg > 0 &&
               max_normal_angle_deg < 90,
           "max_normal_angle must be in (0, 90) degrees");
+  require(std::isfinite(geometric_weight) && geometric_weight >= 0 && geometric_weight <= 10,
+          "geometric_weight must be in [0, 10]");
+  require(std::isfinite(geometric_max_error) && geometric_max_error > 0 && geometric_max_error <= 100,
+          "geometric_max_error must be in (0, 100] pixels");
+  require(first_iteration >= 0 && first_iteration <= 100, "first_iteration must be in 0..100");
   require(median_filter_size >= 0 && median_filter_size <= 8, "median_filter must be in 0..8");
   return why.str();
 }

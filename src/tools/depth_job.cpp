@@ -10,6 +10,7 @@
 #include <cstring>
 #include <future>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <sstream>
 
@@ -133,6 +134,23 @@ void writeDepthOutputs(const std::string& output_dir, int view_id, const Pinhole
   for (const auto& job : depthOutputJobs(dir, camera, depth_min, depth_max, borrowed)) job();
 }
 
+namespace {
+
+// The geometric pass's inputs: the photometric maps of the problem's sources
+// (its source keys are view ids; a source not estimated has none) and of the
+// reference itself as the start.
+void attachGeometricInputs(const std::map<int, DepthMap>& photometric, int reference_id, DepthProblem* problem) {
+  for (int64_t source : problem->source_keys) {
+    const auto found = photometric.find(static_cast<int>(source));
+    problem->source_depths.push_back(found != photometric.end() ? ImageViewF(found->second.depth) : ImageViewF());
+  }
+  const DepthMap& own = photometric.at(reference_id);
+  problem->prior_depth = own.depth;
+  problem->prior_normal = own.normal;
+}
+
+}  // namespace
+
 int runDepthJob(const std::string& input_dir, const std::string& output_dir,
                 const DepthJobOptions& options,
                 const std::function<void(int, const DepthProblem&, const DepthMap&)>& on_result) {
@@ -178,12 +196,31 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
   // threads; about two maps in the queue bound the memory (x1: 126 MB each).
   BackgroundWriter writer(10, 4);
   double problem_ms = first_problem_ms, estimate_ms = 0, writer_wait_ms = 0;
+  // --geometric: the photometric maps of all listed views first (in memory).
+  const bool geometric = options.geometric_iterations > 0;
+  std::map<int, DepthMap> photometric;
+  std::unique_ptr<DepthEstimator> geometric_estimator;
+  if (geometric) {
+    for (size_t i = 0; i < ids.size(); ++i) {
+      auto start = Clock::now();
+      const DepthProblem problem = i == 0 ? first_problem : images.makeProblem(ids[i]);
+      problem_ms += millisecondsSince(start);
+      start = Clock::now();
+      photometric[ids[i]] = estimator.estimate(problem);
+      estimate_ms += millisecondsSince(start);
+    }
+    PatchMatchOptions second = options.patchmatch;
+    second.num_iterations = options.geometric_iterations;
+    second.first_iteration = second.bisection_only_iterations;
+    geometric_estimator = std::make_unique<DepthEstimator>(second, estimator.backend());
+  }
   for (size_t i = 0; i < ids.size(); ++i) {
     auto start = Clock::now();
-    const DepthProblem problem = i == 0 ? first_problem : images.makeProblem(ids[i]);
-    if (i > 0) problem_ms += millisecondsSince(start);
+    DepthProblem problem = i == 0 && !geometric ? first_problem : images.makeProblem(ids[i]);
+    if (i > 0 || geometric) problem_ms += millisecondsSince(start);
+    if (geometric) attachGeometricInputs(photometric, ids[i], &problem);
     start = Clock::now();
-    DepthMap map = estimator.estimate(problem);
+    DepthMap map = geometric ? geometric_estimator->estimate(problem) : estimator.estimate(problem);
     estimate_ms += millisecondsSince(start);
     if (options.max_cost > 0) maskByCost(&map, options.max_cost);
     if (on_result) on_result(ids[i], problem, map);
@@ -281,10 +318,14 @@ void checkOptionMeanings(const DepthJobOptions& options, bool depth_min_given,
 DepthJobOptions parseDepthJobArguments(const std::vector<std::string>& arguments) {
   DepthJobOptions options;
   bool depth_min_given = false, depth_max_given = false;
+  bool geometric = false;
+  int geometric_iterations = 3;
   for (size_t i = 0; i < arguments.size(); ++i) {
     std::string name, value;
-    nextOption(arguments, &i, {"quiet"}, &name, &value);
+    nextOption(arguments, &i, {"quiet", "geometric"}, &name, &value);
     if (name == "quiet") options.quiet = parseSwitch(name, value);
+    else if (name == "geometric") geometric = parseSwitch(name, value);
+    else if (name == "geometric_iterations") geometric_iterations = parseValue<int>(name, value);
     else if (name == "views") options.reference_ids = parseIdList(value);
     else if (name == "num_sources") options.problem.max_sources = parseValue<int>(name, value);
     else if (name == "max_image_size") options.problem.max_image_size = parseValue<int>(name, value);
@@ -302,6 +343,10 @@ DepthJobOptions parseDepthJobArguments(const std::vector<std::string>& arguments
     else if (!setPatchMatchOption(name, value, &options.patchmatch))
       throw InputError("unknown option --" + name + " (see --help)");
   }
+  if (geometric_iterations < 1 || geometric_iterations > 100) {
+    throw InputError("option --geometric_iterations must be in 1..100, got " + std::to_string(geometric_iterations));
+  }
+  options.geometric_iterations = geometric ? geometric_iterations : 0;
   checkOptionMeanings(options, depth_min_given, depth_max_given);
   const std::string problems = options.problem.validate() + options.patchmatch.validate();
   if (!problems.empty()) throw InputError("invalid options:\n" + problems);
@@ -328,6 +373,11 @@ std::string depthJobUsage() {
          "  --backend auto|cuda|cpu compute backend (default auto: CUDA if a GPU is usable)\n"
          "  --max_cost C            mask pixels whose cost exceeds C (default 0: no mask)\n"
          "  --ground_truth DIR      report accuracy against DIR/NNNNNNNN.pfm z-depth maps\n"
+         "  --geometric             then a geometric-consistency pass per view (not in the paper):\n"
+         "                          from its photometric map, with the reprojection error against\n"
+         "                          the listed source views' maps added to every cost\n"
+         "  --geometric_iterations N   iterations of that pass (default 3, numbered from\n"
+         "                          bisection_only_iterations: local refinement)\n"
          "  --quiet                 no progress on stderr\n\n"
          "Method options (defaults are the paper's):\n"
       << describe(PatchMatchOptions());

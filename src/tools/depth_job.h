@@ -29,6 +29,10 @@ struct DepthJobOptions {
   // Folder of ground-truth z-depth maps NNNNNNNN.pfm (any resolution): when
   // set, accuracy is reported per view and pooled.
   std::string ground_truth_dir;
+  // > 0 (--geometric): every listed view is estimated photometrically first,
+  // then again for this many iterations from its own map, with the geometric
+  // term against the listed source views' maps (geometric_consistency.h).
+  int geometric_iterations = 0;
 };
 
 // Writes OUTPUT_DIR/<8-digit id>/ depth.pfm, normal.pfm, cost.pfm, depth.png

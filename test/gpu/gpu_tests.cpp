@@ -18,10 +18,12 @@
 //
 // usage: amhmvs_gpu_tests DATA_DIR [--sanitize] [--skip-cpu-fountain]
 // DATA_DIR is the output of scripts/prepare_gpu_data.py.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <map>
 #include <random>
 #include <string>
@@ -157,6 +159,66 @@ void middlebury(const std::string& data, Backend backend, bool check_agreement) 
     }
   }
   checkFloors(std::string("middlebury pooled, ") + backendName(backend), pooled, kMiddleburyFloors);
+}
+
+// The geometric pass (amhmvs_depth --geometric): both views of each two-view
+// scene photometrically, then view 0 again with view 1's map; pooled against
+// the ground truth on `backend`, and the CUDA maps against the CPU's.
+void middleburyGeometric(const std::string& data) {
+  AccuracyCounts photometric, geometric;
+  std::map<std::string, DepthMap> by_backend[2];
+  for (const char* scene : kMiddleburyScenes) {
+    const MiddleburyGroundTruth gt = readMiddleburyGroundTruth(data + "/middlebury2014/" + scene);
+    for (Backend backend : {Backend::kCuda, Backend::kCpu}) {
+      for (int iterations : {0, 3}) {
+        if (backend == Backend::kCpu && iterations == 0) continue;
+        DepthJobOptions options;
+        options.backend = backend;
+        options.quiet = true;
+        options.problem.max_sources = 1;
+        options.geometric_iterations = iterations;
+        runDepthJob(data + "/mvsnet/middlebury2014_" + scene, "", options,
+                    [&](int id, const DepthProblem&, const DepthMap& map) {
+                      if (id != 0) return;
+                      if (backend == Backend::kCpu) {
+                        by_backend[1][scene] = map;
+                        return;
+                      }
+                      (iterations ? geometric : photometric).merge(denseDepthAccuracy(map.depth, gt.depth, &gt.nonoccluded));
+                      if (iterations) by_backend[0][scene] = map;
+                    });
+      }
+    }
+    char text[160];
+    const double a = agreement(by_backend[0][scene].depth, by_backend[1][scene].depth, 0.001);
+    std::snprintf(text, sizeof(text), "geometric pass, CPU/GPU agreement on middlebury %s: %.2f %% of pixels within 0.1 %% depth",
+                  scene, 100 * a);
+    expect(a >= 0.97, text);
+  }
+  char text[240];
+  std::snprintf(text, sizeof(text),
+                "middlebury pooled, cuda: photometric %s %%, geometric pass %s %% (issue 12 target 79.2 / 86.3 / 91.2; "
+                "ACMH after its geometric pass 78.2 / 85.3 / 90.2)",
+                photometric.percentages().c_str(), geometric.percentages().c_str());
+  bool better = true;
+  for (int i = 0; i < 3; ++i) better &= geometric.fraction(i) > photometric.fraction(i) + 0.005;
+  expect(better, text);
+}
+
+// Kernel time per map of the geometric pass (3 iterations from the
+// photometric maps), median over the views of a fountain size.
+void geometricSpeed(const std::string& data, const std::string& name) {
+  const std::string folder = data + "/mvsnet/" + name;
+  DepthJobOptions options;
+  options.backend = Backend::kCuda;
+  options.quiet = true;
+  options.geometric_iterations = 3;
+  std::vector<double> ms;
+  runDepthJob(folder, "", options,
+              [&](int, const DepthProblem&, const DepthMap& map) { ms.push_back(map.compute_milliseconds); });
+  std::sort(ms.begin(), ms.end());
+  std::printf("INFO  geometric pass, %s: %.1f ms per map (median of %zu; kernels and download)\n", name.c_str(),
+              ms.empty() ? 0.0 : ms[ms.size() / 2], ms.size());
 }
 
 void fountain(const std::string& data, Backend backend) {
@@ -595,6 +657,10 @@ int main(int argc, char** argv) {
     gpuFusion(640, 480);
     middlebury(data, Backend::kCuda, true);
     middlebury(data, Backend::kCpu, false);
+    middleburyGeometric(data);
+    for (const char* name : {"fountain_x0.25", "fountain_x1"}) {
+      if (std::ifstream(data + "/mvsnet/" + name + "/pair.txt")) geometricSpeed(data, name);
+    }
     fountain(data, Backend::kCuda);
     onlineMapperFountain(data);
     if (cpu_fountain) fountain(data, Backend::kCpu);

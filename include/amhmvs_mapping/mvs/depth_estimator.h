@@ -47,6 +47,14 @@ struct DepthProblem {
   // kNoImageKey anywhere means "not kept".
   int64_t reference_key = kNoImageKey;
   std::vector<int64_t> source_keys;
+  // Geometric consistency (optional): empty, or one z-depth map per source at
+  // its camera's size (an empty view: that source has none). Adds the
+  // reprojection term of geometric_consistency.h to every matching cost.
+  std::vector<ImageViewF> source_depths;
+  // Optional start (empty, or both at the reference camera's size): depth
+  // (1 channel) and unit normals (3 channels, camera frame), e.g. this view's
+  // photometric result; random planes where they are invalid.
+  ImageViewF prior_depth, prior_normal;
 
   // Empty when the problem can be solved; otherwise what is wrong (which view,
   // which value).

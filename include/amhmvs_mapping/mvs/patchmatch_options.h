@@ -58,6 +58,15 @@ struct PatchMatchOptions {
   float perturbation = 0.02f;          // COLMAP-style: relative depth / normal perturbation
   float max_normal_angle_deg = 80.0f;  // hypotheses steeper than this to the ray are rejected
 
+  // --- Geometric consistency (not in the paper; geometric_consistency.h) ---
+  // Used when a problem carries the source views' depth maps.
+  float geometric_weight = 0.2f;     // lambda: cost per pixel of reprojection error
+  float geometric_max_error = 3.0f;  // tau: reprojection errors are capped here, pixels
+  // Number of the first iteration (not a table option): a pass that starts
+  // from a prior depth map (the geometric pass) starts at 3, with the late
+  // iterations' local refinement and view-selection thresholds.
+  int first_iteration = 0;
+
   // --- Post-processing ---
   int median_filter_size = 4;  // paper: 4x4 median on depth; 0 or 1 disables
 

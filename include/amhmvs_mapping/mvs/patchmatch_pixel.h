@@ -15,6 +15,7 @@
 // After the last iteration the depth map is median filtered.
 #pragma once
 
+#include "amhmvs_mapping/mvs/geometric_consistency.h"
 #include "amhmvs_mapping/mvs/hd.h"
 #include "amhmvs_mapping/mvs/matching_cost.h"
 #include "amhmvs_mapping/mvs/propagation_pattern.h"
@@ -41,6 +42,17 @@ struct PatchMatchParams {
   SelectionParams selection;
   PropagationPattern pattern;
   SourceGeometry sources[32];
+  int first_iteration;  // number of the first iteration (schedules depend on it)
+  // Geometric consistency (geometric_consistency.h), with the source views'
+  // depth maps concatenated (device memory on the GPU).
+  GeometricTerm geometric;
+  SourceBackprojection back[32];
+  const float* source_depths;
+  // Start from this depth (1 per pixel) and normal (3 per pixel) map instead
+  // of random planes where they are valid; null: random start.
+  const float* prior_depth;
+  const float* prior_normal;
+  float unscored_cost;  // a pixel's cost at or above this: nothing could be scored
 };
 
 // Per-pixel state in structure-of-arrays form (device or host pointers).
@@ -94,6 +106,31 @@ AMHMVS_HD Vec3 perturbNormal(const PatchMatchParams& P, Vec3 n, Vec3 ray, float 
   return -dot(candidate, normalized(ray)) >= P.min_normal_cos ? candidate : n;
 }
 
+// Adds the geometric term to the costs of views[0..count) (all views when
+// `views` is null) of `plane` at (x, y).
+AMHMVS_HD void addGeometricCosts(const PatchMatchParams& P, const SourceGeometry* sources,
+                                 const int8_t* views, int count, const Plane& plane, int x, int y,
+                                 float* costs) {
+  if (!P.geometric.enabled) return;
+  const Vec3 ray = pixelRay(P.K, static_cast<float>(x), static_cast<float>(y));
+  for (int k = 0; k < count; ++k) {
+    const int j = views ? views[k] : k;
+    costs[j] += P.geometric.weight * reprojectionError(P.geometric, sources[j], P.back[j],
+                                                       P.source_depths, plane, ray, x, y);
+  }
+}
+
+// The prior's plane at pixel `index` when it is usable, else false.
+AMHMVS_HD bool priorPlane(const PatchMatchParams& P, int index, Vec3 ray, Plane* plane) {
+  if (!P.prior_depth) return false;
+  const float depth = P.prior_depth[index];
+  const Vec3 n = {P.prior_normal[3 * index], P.prior_normal[3 * index + 1], P.prior_normal[3 * index + 2]};
+  if (!(depth >= P.depth_min && depth <= P.depth_max) || !(dot(n, n) > 0.5f)) return false;
+  *plane = planeFromDepthNormal(n, depth, ray);
+  float d;
+  return acceptableHypothesis(P, *plane, ray, &d);
+}
+
 // --- Initialisation -------------------------------------------------------
 
 // Random plane (uniform depth in range, random normal facing the camera) and
@@ -106,7 +143,8 @@ AMHMVS_HD void initializePixel(const PatchMatchParams& P, const Sampler& sampler
   PixelRandom rng(P.seed, static_cast<uint32_t>(index), kStreamInit);
   const Vec3 ray = pixelRay(P.K, static_cast<float>(x), static_cast<float>(y));
   const float depth = rng.uniform(P.depth_min, P.depth_max);
-  const Plane plane = planeFromDepthNormal(randomNormal(P, ray, &rng), depth, ray);
+  Plane plane = planeFromDepthNormal(randomNormal(P, ray, &rng), depth, ray);
+  priorPlane(P, index, ray, &plane);  // replaces the random plane where usable
 
   ReferenceWindowT<Samples> win;
   win.sample = samples;
@@ -116,6 +154,7 @@ AMHMVS_HD void initializePixel(const PatchMatchParams& P, const Sampler& sampler
   CostBatch<Window, Sampler, Samples> batch(sampler, P.cost, win, x, y);
   for (int j = 0; j < P.num_sources; ++j) batch.add(P.sources[j], q, &costs[j]);
   batch.flush();
+  addGeometricCosts(P, P.sources, nullptr, P.num_sources, plane, x, y, costs);
   ViewWeights heuristic;
   heuristic.heuristic = true;
   state.plane[index] = plane;
@@ -157,6 +196,7 @@ AMHMVS_HD float scoreHypothesis(const PatchMatchParams& P, const SourceGeometry*
     batch.add(sources[j], q, &costs[j]);
   }
   batch.flush();
+  addGeometricCosts(P, sources, views.view, views.count, plane, x, y, costs);
   return aggregateCost(P.selection, weights, costs, P.num_sources);
 }
 
@@ -178,6 +218,7 @@ AMHMVS_HD void scoreHypotheses(const PatchMatchParams& P, const SourceGeometry* 
   }
   batch.flush();
   for (int c = 0; c < count; ++c) {
+    addGeometricCosts(P, sources, views.view, views.count, planes[c], x, y, costs[c]);
     scores[c] = aggregateCost(P.selection, weights, costs[c], P.num_sources);
   }
 }
@@ -244,6 +285,10 @@ AMHMVS_HD void costMatrix(const PatchMatchParams& P, const SourceGeometry* sourc
     for (int j = 0; j < n; ++j) batch.add(sources[j], q, &matrix[i * n + j]);
   }
   batch.flush();
+  for (int k = 0; k < num_distinct; ++k) {
+    const int i = distinct[k];
+    addGeometricCosts(P, sources, nullptr, n, hypotheses[i], x, y, &matrix[i * n]);
+  }
   for (int i = 0; i < rows; ++i) {
     if (first[i] == i) continue;
     for (int j = 0; j < n; ++j) matrix[i * n + j] = matrix[first[i] * n + j];
@@ -376,7 +421,7 @@ AMHMVS_HD void pixelOutput(const PatchMatchParams& P, PixelState state, int x, i
   const Vec3 ray = pixelRay(P.K, static_cast<float>(x), static_cast<float>(y));
   *cost = state.cost[index];
   *normal = plane.n;
-  *depth = *cost < kMaxCost ? planeDepth(plane, ray) : nanf_hd();
+  *depth = *cost < P.unscored_cost ? planeDepth(plane, ray) : nanf_hd();
 }
 
 // Median of the finite depths in a size x size window covering offsets
