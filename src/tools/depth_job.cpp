@@ -134,11 +134,6 @@ void writeDepthOutputs(const std::string& output_dir, int view_id, const Pinhole
   for (const auto& job : depthOutputJobs(dir, camera, depth_min, depth_max, borrowed)) job();
 }
 
-namespace {
-
-// The geometric pass's inputs: the photometric maps of the problem's sources
-// (its source keys are view ids; a source not estimated has none) and of the
-// reference itself as the start.
 void attachGeometricInputs(const std::map<int, DepthMap>& photometric, int reference_id, DepthProblem* problem) {
   for (int64_t source : problem->source_keys) {
     const auto found = photometric.find(static_cast<int>(source));
@@ -148,8 +143,6 @@ void attachGeometricInputs(const std::map<int, DepthMap>& photometric, int refer
   problem->prior_depth = own.depth;
   problem->prior_normal = own.normal;
 }
-
-}  // namespace
 
 int runDepthJob(const std::string& input_dir, const std::string& output_dir,
                 const DepthJobOptions& options,

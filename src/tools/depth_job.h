@@ -3,6 +3,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,12 @@ struct DepthJobOptions {
 // (`camera` and the depth range are the problem's).
 void writeDepthOutputs(const std::string& output_dir, int view_id, const PinholeCamera& camera,
                        double depth_min, double depth_max, const DepthMap& map);
+
+// The geometric pass's inputs of `problem` (made by SceneImageCache, whose
+// source keys are view ids): the photometric maps of its sources (a source
+// not in `photometric` has none) and of the reference itself as the start.
+// The maps must outlive the problem.
+void attachGeometricInputs(const std::map<int, DepthMap>& photometric, int reference_id, DepthProblem* problem);
 
 // Masks pixels whose cost exceeds max_cost (depth := NaN).
 void maskByCost(DepthMap* map, float max_cost);
