@@ -25,7 +25,7 @@
 namespace amhmvs {
 namespace {
 
-const char* kUsage =
+const char* kUsageHead =
     "Usage: amhmvs_synthetic OUTPUT_DIR [--scene room|folded] [--views N] [--width W]\n"
     "                        [--height H] [--seed S] [--realism none|default]\n"
     "                        [--frame_period S] [realism options]\n\n"
@@ -43,8 +43,8 @@ const char* kUsage =
     "  --realism default  a handheld camera behind a VIO tracker: the values below\n"
     "                     marked [default profile]\n"
     "  --frame_period S   seconds between frames (0.5): the time base of the effects\n"
-    "Each effect alone (after --realism, whatever the order):\n"
-    "%s"
+    "Each effect alone (after --realism, whatever the order):\n";
+const char* kUsageTail =
     "With realism, cams/ holds the tracker's (written) poses, cams_gt/ the true poses\n"
     "(middle row at mid exposure), depth_gt/ the true depth of what each pixel saw, and\n"
     "realism.txt the options and per frame what they did (in pixels of image motion).\n";
@@ -56,9 +56,7 @@ std::string usage() {
     options += "  --" + info.name + " (" + info.get(RealismOptions()) + "; [default profile] " + info.get(profile) +
                ")\n      " + info.help + "\n";
   }
-  std::vector<char> text(std::string(kUsage).size() + options.size() + 1);
-  std::snprintf(text.data(), text.size(), kUsage, options.c_str());
-  return text.data();
+  return kUsageHead + options + kUsageTail;
 }
 
 // Sets a realism option by name; false when there is none of that name.
