@@ -59,17 +59,6 @@ std::string usage() {
   return kUsageHead + options + kUsageTail;
 }
 
-// Sets a realism option by name; false when there is none of that name.
-bool setRealismOption(const std::string& name, const std::string& value, RealismOptions* options) {
-  for (const RealismOptionInfo& info : realismOptionTable()) {
-    if (info.name == name) {
-      info.set(*options, value);
-      return true;
-    }
-  }
-  return false;
-}
-
 // MVSNet-style score of a source for a reference: a Gaussian of the
 // triangulation angle at the reference's median scene point, peaking at 5 deg.
 double pairScore(const PinholeCamera& ref, double median_depth, const PinholeCamera& src) {
@@ -89,56 +78,67 @@ double medianFinite(const ImageF& image) {
   return values[values.size() / 2];
 }
 
+struct SyntheticOptions {
+  std::string scene = "room";
+  int views = 8, width = 320, height = 240;
+  uint32_t seed = 1;
+  double frame_period = 0.5;
+  RealismOptions realism;  // seed: --realism_seed, else --seed
+};
+
+SyntheticOptions parseOptions(const std::vector<std::string>& args) {
+  SyntheticOptions o;
+  // The profile first, so that single effects override it in any order.
+  std::vector<std::pair<std::string, std::string>> options;
+  for (size_t i = 1; i < args.size(); ++i) {
+    std::string name, value;
+    nextOption(args, &i, {}, &name, &value);
+    if (name == "realism") o.realism = realismProfile(value);
+    else options.push_back({name, value});
+  }
+  bool realism_seed_given = false;
+  for (const auto& [name, value] : options) {
+    if (name == "scene") o.scene = value;
+    else if (name == "views") o.views = parseValue<int>(name, value);
+    else if (name == "width") o.width = parseValue<int>(name, value);
+    else if (name == "height") o.height = parseValue<int>(name, value);
+    else if (name == "seed") o.seed = parseValue<uint32_t>(name, value);
+    else if (name == "frame_period") o.frame_period = parseValue<double>(name, value);
+    else if (setOptionFromTable(realismOptionTable(), name, value, &o.realism)) realism_seed_given |= name == "realism_seed";
+    else throw InputError("unknown option --" + name + " (see --help)");
+  }
+  if (o.views < 2 || o.views > 1000) throw InputError("--views must be in 2..1000");
+  if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192) {
+    throw InputError("--width and --height must be in 16..8192");
+  }
+  if (!(o.frame_period > 0 && o.frame_period <= 3600)) throw InputError("--frame_period must be in (0, 3600] seconds");
+  if (!realism_seed_given) o.realism.seed = o.seed;
+  const std::string problems = o.realism.check();
+  if (!problems.empty()) throw InputError("invalid realism options:\n" + problems);
+  return o;
+}
+
 int run(const std::vector<std::string>& args) {
   if (args.empty() || args[0] == "--help" || args[0] == "-h") {
     std::cout << usage();
     return args.empty() ? 2 : 0;
   }
   const std::string out = args[0];
-  std::string scene = "room";
-  int views = 8, width = 320, height = 240;
-  uint32_t seed = 1;
-  double frame_period = 0.5;
-  // The profile first, so that single effects override it in any order.
-  RealismOptions realism;
-  bool realism_seed_given = false;
-  std::vector<std::pair<std::string, std::string>> options;
-  for (size_t i = 1; i < args.size(); ++i) {
-    std::string name, value;
-    nextOption(args, &i, {}, &name, &value);
-    if (name == "realism") realism = realismProfile(value);
-    else options.push_back({name, value});
-  }
-  for (const auto& [name, value] : options) {
-    if (name == "scene") scene = value;
-    else if (name == "views") views = parseValue<int>(name, value);
-    else if (name == "width") width = parseValue<int>(name, value);
-    else if (name == "height") height = parseValue<int>(name, value);
-    else if (name == "seed") seed = parseValue<uint32_t>(name, value);
-    else if (name == "frame_period") frame_period = parseValue<double>(name, value);
-    else if (setRealismOption(name, value, &realism)) realism_seed_given |= name == "realism_seed";
-    else throw InputError("unknown option --" + name + " (see --help)");
-  }
-  if (views < 2 || views > 1000) throw InputError("--views must be in 2..1000");
-  if (width < 16 || height < 16 || width > 8192 || height > 8192) {
-    throw InputError("--width and --height must be in 16..8192");
-  }
-  if (!(frame_period > 0 && frame_period <= 3600)) throw InputError("--frame_period must be in (0, 3600] seconds");
-  if (!realism_seed_given) realism.seed = seed;
-  const std::string problems = realism.check();
-  if (!problems.empty()) throw InputError("invalid realism options:\n" + problems);
+  const SyntheticOptions o = parseOptions(args);
+  const RealismOptions& realism = o.realism;
+  const int views = o.views;
   SyntheticWorld world;
   CameraTrajectory trajectory;
-  if (scene == "room") {
-    world = makeIndoorRoomWorld(seed);
-    trajectory = smoothRoomTrajectory(views, width, height, seed, frame_period);
-  } else if (scene == "folded") {
-    world = makeFoldedPlanesWorld(seed);
-    trajectory = interpolatedTrajectory(makeSidewaysCameras(views, width, height), frame_period);
+  if (o.scene == "room") {
+    world = makeIndoorRoomWorld(o.seed);
+    trajectory = smoothRoomTrajectory(views, o.width, o.height, o.seed, o.frame_period);
+  } else if (o.scene == "folded") {
+    world = makeFoldedPlanesWorld(o.seed);
+    trajectory = interpolatedTrajectory(makeSidewaysCameras(views, o.width, o.height), o.frame_period);
   } else {
     throw InputError("--scene must be room or folded");
   }
-  const std::vector<FrameDisturbance> disturbances = drawFrameDisturbances(realism, views, frame_period);
+  const std::vector<FrameDisturbance> disturbances = drawFrameDisturbances(realism, views, o.frame_period);
   namespace fs = std::filesystem;
   std::vector<const char*> folders = {"images", "cams", "depth_gt"};
   if (realism.any()) folders.push_back("cams_gt");
@@ -181,10 +181,10 @@ int run(const std::vector<std::string>& args) {
     std::fprintf(pair, "\n");
   }
   std::fclose(pair);
-  std::fprintf(stderr, "\nwrote %s (%d views, %dx%d, scene %s)\n", out.c_str(), views, width, height,
-               scene.c_str());
+  std::fprintf(stderr, "\nwrote %s (%d views, %dx%d, scene %s)\n", out.c_str(), views, o.width, o.height,
+               o.scene.c_str());
   if (realism.any()) {
-    writeRealismReport(out + "/realism.txt", realism, frame_period, reports);
+    writeRealismReport(out + "/realism.txt", realism, o.frame_period, reports);
     std::fprintf(stderr, "%s\n", summarizeRealism(reports).c_str());
   }
   return 0;

@@ -14,6 +14,7 @@
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"
+#include "amhmvs_mapping/io/posed_sequence.h"
 #include "test_helpers.h"
 
 namespace amhmvs {
@@ -85,6 +86,7 @@ TEST(SyntheticRealism, DefaultOutputIsTodaysBitForBit) {
     // existed (the binary of commit 71005dc; PNG pixels decoded).
     EXPECT_EQ(sequenceHash(out, 6), 0x7e7cf2a28466b145ull) << std::hex << sequenceHash(out, 6);
     EXPECT_EQ(entries(out), (std::set<std::string>{"cams", "depth_gt", "images", "pair.txt"}));
+    EXPECT_FALSE(readPosedSequence(out).frames[0].true_camera);  // the cams are the truth
   }
 }
 
@@ -123,6 +125,20 @@ TEST(SyntheticRealism, WritesTheTrackersPosesBesideTheExactTruth) {
         EXPECT_EQ(depth.at(x, row), static_cast<float>(depthAt(world, row_camera, x, row))) << x << "," << row;
       }
     }
+  }
+
+  // amhmvs_map's reader: the written poses are the frames' cameras (the
+  // tracker's), cams_gt/ their true ones.
+  const PosedSequence sequence = readPosedSequence(out);
+  ASSERT_EQ(sequence.frames.size(), static_cast<size_t>(views));
+  for (int v = 0; v < views; ++v) {
+    const PosedFrame& frame = sequence.frames[v];
+    EXPECT_EQ(frame.camera.t, readCam(out + "/cams/" + camName(v)).t);
+    ASSERT_TRUE(frame.true_camera) << v;
+    EXPECT_EQ(frame.true_camera->t, readCam(out + "/cams_gt/" + camName(v)).t);
+    EXPECT_EQ(frame.true_camera->R, readCam(out + "/cams_gt/" + camName(v)).R);
+    EXPECT_EQ(frame.true_camera->width, width);
+    EXPECT_TRUE(frame.ground_truth.present());
   }
 
   // Another realism seed: other noise and pose errors, the same truth.
