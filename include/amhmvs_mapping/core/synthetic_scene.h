@@ -115,8 +115,8 @@ using RadianceToLevel = std::function<uint8_t(double radiance, int x, int y, int
 // Rounds to the nearest level and clips to 0..255 (renderView's conversion).
 uint8_t radianceToByte(double radiance);
 
-// renderView with a pose per row (row_exposure(y), called from several
-// threads at once) and a conversion of radiance to levels. Each ray is cast
+// renderView with a pose per row (row_exposure(y), called once per row, in
+// order, before any ray is cast) and a conversion of radiance to levels. Each ray is cast
 // as renderView casts it, so with row_exposure(y) = {camera, {}} and
 // radianceToByte it returns renderView's result bit for bit. Rays per pixel:
 // supersampling^2 times the number of samples. `camera` is the view's
