@@ -161,6 +161,20 @@ class CudaReferenceFusion : public ReferenceFusion {
     return stats;
   }
 
+  void forget(int64_t key) override {
+    const auto found = resident_.find(key);
+    if (found == resident_.end()) return;
+    resident_bytes_ -= found->second.bytes();
+    resident_.erase(found);
+    ++stats_.forgotten;
+  }
+
+  void forgetAll() override {
+    stats_.forgotten += resident_.size();
+    resident_.clear();
+    resident_bytes_ = 0;
+  }
+
  private:
   ViewData data(int index) const {
     const DeviceMaps& m = *maps_[index];

@@ -20,6 +20,14 @@ FusionResult DepthMapFuser::fuse(const std::vector<FusionView>& views, const Fus
   return fusion::runFusion(views, options, cuda_.get());
 }
 
+void DepthMapFuser::forget(int64_t key) {
+  if (cuda_) cuda_->forget(key);
+}
+
+void DepthMapFuser::forgetAll() {
+  if (cuda_) cuda_->forgetAll();
+}
+
 FuserCacheStats DepthMapFuser::cacheStats() const { return cuda_ ? cuda_->cacheStats() : FuserCacheStats(); }
 
 }  // namespace amhmvs

@@ -28,6 +28,9 @@ class ReferenceFusion {
   virtual size_t fuseReference(int reference, const std::vector<int>& sources,
                                KeyframePoints* points) = 0;
   virtual FuserCacheStats cacheStats() const { return {}; }
+  // Drops the resident maps of `key` (no-op when none) or of every key.
+  virtual void forget(int64_t key) { (void)key; }
+  virtual void forgetAll() {}
 };
 
 // The CUDA backend (cuda/cuda_fusion.cu; throws BackendError in builds

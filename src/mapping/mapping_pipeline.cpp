@@ -153,19 +153,29 @@ void MappingPipeline::init(EstimateFunction primary, EstimateFunction fallback, 
     return map;
   };
   const auto fuse = [this](const std::vector<FusionView>& views, const FusionOptions& options) {
-    if (fuser_) {
-      try {
-        return fuser_->fuse(views, options);
-      } catch (const BackendError& e) {
-        report(LogLevel::kError, "fusion", std::string("fusion on the GPU failed (") + e.what() +
-                                               "), this keyframe is fused on the CPU");
-        std::lock_guard<std::mutex> lock(stats_mutex_);
-        ++stats_.fusion_cpu_fallbacks;
-      }
-    }
-    return fuseDepthMaps(views, options);
+    return this->fuse(views, options);
   };
   mapper_.reset(new OnlineMapper(options_.mapper, estimate, fuse));
+}
+
+FusionResult MappingPipeline::fuse(const std::vector<FusionView>& views, const FusionOptions& options) {
+  if (fuser_) {
+    for (const FusionView& view : views) {
+      if (view.key < 0) continue;
+      const auto known = fused_keys_.find(view.id);
+      if (known != fused_keys_.end() && known->second != view.key) fuser_->forget(known->second);
+      fused_keys_[view.id] = view.key;
+    }
+    try {
+      return fuser_->fuse(views, options);
+    } catch (const BackendError& e) {
+      report(LogLevel::kError, "fusion", std::string("fusion on the GPU failed (") + e.what() +
+                                             "), this keyframe is fused on the CPU");
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.fusion_cpu_fallbacks;
+    }
+  }
+  return fuseDepthMaps(views, options);
 }
 
 void MappingPipeline::report(LogLevel level, const std::string& kind, const std::string& line) {
@@ -276,6 +286,8 @@ void MappingPipeline::applyPending() {
   if (reset) {
     mapper_->reset();
     if (estimator_) estimator_->forgetAll();  // keyframe ids may be reused
+    if (fuser_) fuser_->forgetAll();
+    fused_keys_.clear();
     std::lock_guard<std::mutex> stats(stats_mutex_);
     stats_ = statsAfterReset(stats_);
   }
@@ -355,9 +367,14 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
   }
   output.result.times.queue_wait_ms = queue_wait_ms;
   // Keyframe ids are the estimator's image keys: an evicted keyframe's image
-  // leaves the GPU's resident pool too.
-  if (estimator_) {
-    for (int64_t id : output.result.evicted) estimator_->forget(id);
+  // and depth map leave the GPU too.
+  for (int64_t id : output.result.evicted) {
+    if (estimator_) estimator_->forget(id);
+    const auto fused = fused_keys_.find(id);
+    if (fused != fused_keys_.end()) {
+      fuser_->forget(fused->second);
+      fused_keys_.erase(fused);
+    }
   }
   account(output);
   outputs->push_back(std::move(output));

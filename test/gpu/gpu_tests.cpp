@@ -233,6 +233,24 @@ void onlineMapperFountain(const std::string& data, const std::string& label, con
               static_cast<unsigned long>(stats.keyframes_fused));
   expect(latest.size() == scene.views.size() && on_cpu == 0 && stats.cpu_fallbacks == 0 && stats.backend == "cuda",
          "pipeline on the GPU, " + label + ": a depth map for every fountain keyframe, no CPU fallback");
+  // Replaced depth maps leave the fuser's device cache when their successor
+  // is fused (not when the budget pushes them out): at most one map per
+  // keyframe stays resident; a reset empties it.
+  const FuserCacheStats cache = pipeline.fusionCacheStats();
+  const DepthMap& any_map = latest.begin()->second;
+  const size_t map_bytes = any_map.depth.data.size() * (5 * sizeof(float) + 3);  // depth, normal, cost, RGB
+  pipeline.requestReset();
+  pipeline.runUntilIdle(keep);
+  const FuserCacheStats after_reset = pipeline.fusionCacheStats();
+  char text[300];
+  std::snprintf(text, sizeof(text),
+                "pipeline on the GPU, %s: fuser cache %lu uploads, %lu forgotten, %.1f MB resident for %zu keyframes "
+                "(<= %.1f MB: one map each); after a reset %zu bytes",
+                label.c_str(), static_cast<unsigned long>(cache.uploads), static_cast<unsigned long>(cache.forgotten),
+                cache.resident_bytes / 1e6, latest.size(), latest.size() * map_bytes / 1e6,
+                after_reset.resident_bytes);
+  expect(cache.forgotten > 0 && cache.resident_bytes <= latest.size() * map_bytes && after_reset.resident_bytes == 0,
+         text);
   const std::string what = "pipeline (nodelet core, CUDA), " + label + ": fountain_x0.25 sparse agreement";
   if (check)
     checkFloors(what, pooled, kFountainFloors);
@@ -505,6 +523,26 @@ void gpuFusion(int width, int height) {
                 stats.resident_bytes, small.device_map_budget_bytes);
   expect(stats.evictions == 6 && stats.uploads == 9 && differing == 0 && offset == 0 && first.pointCount() > 0 &&
              stats.resident_bytes <= small.device_map_budget_bytes,
+         text);
+  // forget() frees one map at once, forgetAll() the rest; the next call
+  // uploads again and gives the same points.
+  const size_t before = stats.resident_bytes;
+  budgeted.forget(100);
+  budgeted.forget(12345);  // unknown: nothing
+  const FuserCacheStats one_forgotten = budgeted.cacheStats();
+  budgeted.forgetAll();
+  const FuserCacheStats all_forgotten = budgeted.cacheStats();
+  const FusionResult refused = budgeted.fuse(group(0), options);
+  const double after_forget = fusionDifference(first, refused, &offset);
+  const FuserCacheStats final_stats = budgeted.cacheStats();
+  std::snprintf(text, sizeof(text),
+                "GPU fusion forget: %zu -> %zu -> %zu bytes resident, %lu forgotten, %lu uploads after, result "
+                "identical",
+                before, one_forgotten.resident_bytes, all_forgotten.resident_bytes,
+                static_cast<unsigned long>(all_forgotten.forgotten), static_cast<unsigned long>(final_stats.uploads));
+  expect(one_forgotten.resident_bytes == before / 3 * 2 && one_forgotten.forgotten == 1 &&
+             all_forgotten.resident_bytes == 0 && all_forgotten.forgotten == 3 && final_stats.uploads == 12 &&
+             after_forget == 0 && offset == 0,
          text);
 }
 

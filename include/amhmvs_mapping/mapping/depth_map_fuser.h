@@ -33,6 +33,7 @@ struct FuserCacheStats {
   uint64_t uploads = 0;     // maps copied to the device
   uint64_t hits = 0;        // keyed maps found there
   uint64_t evictions = 0;   // keyed maps dropped to stay in the budget
+  uint64_t forgotten = 0;   // keyed maps dropped by forget() / forgetAll()
   size_t resident_bytes = 0;
 };
 
@@ -52,6 +53,12 @@ class DepthMapFuser {
   // As fuseDepthMaps (same InputErrors); BackendError when the GPU fails
   // (e.g. out of memory), after which the fuser can still be used.
   FusionResult fuse(const std::vector<FusionView>& views, const FusionOptions& options);
+
+  // The maps under `key` (a depth map that was replaced or whose keyframe
+  // left the store) or under every key leave the device now, not when the
+  // budget pushes them out. No-op on the CPU and for unknown keys.
+  void forget(int64_t key);
+  void forgetAll();
 
   Backend backend() const { return backend_; }
   FuserCacheStats cacheStats() const;

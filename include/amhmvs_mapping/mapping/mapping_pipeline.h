@@ -197,6 +197,7 @@ class MappingPipeline {
   bool run(Work work, int64_t id, const std::function<bool(KeyframeResult*)>& call,
            std::vector<PipelineOutput>* outputs, double queue_wait_ms);
   void account(const PipelineOutput& output);
+  FusionResult fuse(const std::vector<FusionView>& views, const FusionOptions& options);
   void report(LogLevel level, const std::string& kind, const std::string& line);
 
   PipelineOptions options_;
@@ -205,6 +206,9 @@ class MappingPipeline {
   std::unique_ptr<DepthEstimator> estimator_, cpu_estimator_;
   std::unique_ptr<FallbackEstimator> fallback_;
   std::unique_ptr<DepthMapFuser> fuser_;  // fusion on the GPU when the estimator runs there
+  // Keyframe id -> the fuser key of its depth map resident on the GPU: a
+  // replaced (refined) map or an evicted keyframe's leaves the device at once.
+  std::map<int64_t, int64_t> fused_keys_;
   std::unique_ptr<OnlineMapper> mapper_;
 
   mutable std::mutex mapper_mutex_;  // mapper_, stats_ mapper-derived fields
