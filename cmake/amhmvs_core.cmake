@@ -34,6 +34,8 @@ set(AMHMVS_CORE_SOURCES
   src/core/camera.cpp
   src/core/image.cpp
   src/core/synthetic_scene.cpp
+  src/core/realism_options.cpp
+  src/core/realistic_capture.cpp
   src/io/scene.cpp
   src/io/pfm.cpp
   src/io/image_io.cpp

@@ -4,10 +4,13 @@
 # ground-truth depth and poses, and writes it twice: an MVSNet dense folder
 # (OUT_DIR/scene, ground truth in depth_gt/) and a ROS bag (OUT_DIR/sequence.bag)
 # with the topics of the bags in ../shared/data/bags plus /camera/depth_gt.
-# Same options, same bytes.
+# Same options, same bytes. --realism default renders what a real camera
+# behind a real tracker delivers (amhmvs_synthetic --realism: the bag's poses
+# are the tracker's, the ground truth stays exact).
 #
 # usage: scripts/make_synthetic_sequence.sh OUT_DIR [--views N] [--size WxH] [--seed S] [--period SECONDS]
-#   defaults: 10 views, 320x240, seed 1, 0.5 s between frames
+#                                           [--realism none|default]
+#   defaults: 10 views, 320x240, seed 1, 0.5 s between frames, realism none
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
@@ -17,7 +20,7 @@ usage() { awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0" >&2;
 [ $# -ge 1 ] || usage
 out=$1
 shift
-views=10 size=320x240 seed=1 period=0.5
+views=10 size=320x240 seed=1 period=0.5 realism=none
 while [ $# -gt 0 ]; do
   [ $# -ge 2 ] || usage
   case $1 in
@@ -25,6 +28,7 @@ while [ $# -gt 0 ]; do
     --size) size=$2 ;;
     --seed) seed=$2 ;;
     --period) period=$2 ;;
+    --realism) realism=$2 ;;
     *) echo "make_synthetic_sequence: unknown option $1" >&2; usage ;;
   esac
   shift 2
@@ -34,5 +38,5 @@ done
 
 rm -rf "$out/scene" "$out/sequence.bag"
 "$bin/amhmvs_synthetic" "$out/scene" --scene room --views "$views" --width "${BASH_REMATCH[1]}" \
-  --height "${BASH_REMATCH[2]}" --seed "$seed"
+  --height "${BASH_REMATCH[2]}" --seed "$seed" --realism "$realism" --frame_period "$period"
 python3 "$here/scripts/dense_folder_to_bag.py" "$out/scene" "$out/sequence.bag" --period "$period"

@@ -440,16 +440,33 @@ double depthAt(const SyntheticWorld& world, const PinholeCamera& camera, double 
   return hit.kind == 0 ? std::numeric_limits<double>::quiet_NaN() : hit.s;
 }
 
+uint8_t radianceToByte(double radiance) { return toByte(radiance); }
+
 RenderedView renderView(const SyntheticWorld& world, const PinholeCamera& camera,
                         int supersampling) {
+  return renderViewByRows(
+      world, camera, [&camera](int) { return RowExposure{camera, {}}; }, supersampling,
+      [](double radiance, int, int, int) { return toByte(radiance); });
+}
+
+RenderedView renderViewByRows(const SyntheticWorld& world, const PinholeCamera& camera,
+                              const std::function<RowExposure(int row)>& row_exposure, int supersampling,
+                              const RadianceToLevel& to_level) {
   checkCamera(camera);
   if (supersampling < 1 || supersampling > 16) {
     throw InputError("renderView: supersampling must be in [1, 16], got " +
                      std::to_string(supersampling));
   }
-  const Eigen::Vector3d origin = camera.center();
-  const CompiledWorld w = compile(world, origin);
+  compile(world, camera.center());  // refuses an invalid world here, not inside the parallel loop
   const int width = camera.width, height = camera.height, n = supersampling;
+  // Every row's poses first (checked, in order), so that nothing throws
+  // inside the parallel loop.
+  std::vector<RowExposure> rows(height);
+  for (int y = 0; y < height; ++y) {
+    rows[y] = row_exposure(y);
+    checkCamera(rows[y].mid);
+    for (const PinholeCamera& sample : rows[y].samples) checkCamera(sample);
+  }
   const float nan = std::numeric_limits<float>::quiet_NaN();
 
   RenderedView out;
@@ -458,31 +475,45 @@ RenderedView renderView(const SyntheticWorld& world, const PinholeCamera& camera
   out.depth = ImageF(width, height, 1, nan);
   out.normal = ImageF(width, height, 3, nan);
 
-  const Eigen::Matrix3d Rt = camera.R.transpose();
   std::vector<double> offsets(n);
   for (int i = 0; i < n; ++i) offsets[i] = (i + 0.5) / n - 0.5;
-  const double inv_samples = 1.0 / (n * n);
 
 #ifdef _OPENMP
 #pragma omp parallel for schedule(dynamic, 2)
 #endif
   for (int y = 0; y < height; ++y) {
+    const PinholeCamera& mid = rows[y].mid;
+    const std::vector<PinholeCamera> colour_poses =
+        rows[y].samples.empty() ? std::vector<PinholeCamera>{mid} : rows[y].samples;
+    // A compiled world per pose: rays are cast from that pose's centre.
+    std::vector<CompiledWorld> compiled;
+    std::vector<Eigen::Matrix3d> rotations;
+    for (const PinholeCamera& pose : colour_poses) {
+      compiled.push_back(compile(world, pose.center()));
+      rotations.push_back(pose.R.transpose());
+    }
+    const CompiledWorld mid_world = compile(world, mid.center());
+    const Eigen::Matrix3d mid_Rt = mid.R.transpose();
+    const double inv_samples = 1.0 / (n * n * static_cast<double>(colour_poses.size()));
     for (int x = 0; x < width; ++x) {
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      for (int j = 0; j < n; ++j) {
-        for (int i = 0; i < n; ++i) {
-          const Eigen::Vector3d d = rayDirection(Rt, camera, x + offsets[i], y + offsets[j]);
-          const Intersection hit = intersect(w, d);
-          if (hit.kind != 0) sum += hitColor(w, hit, origin, d);
+      for (size_t k = 0; k < colour_poses.size(); ++k) {
+        const Eigen::Vector3d origin = colour_poses[k].center();
+        for (int j = 0; j < n; ++j) {
+          for (int i = 0; i < n; ++i) {
+            const Eigen::Vector3d d = rayDirection(rotations[k], colour_poses[k], x + offsets[i], y + offsets[j]);
+            const Intersection hit = intersect(compiled[k], d);
+            if (hit.kind != 0) sum += hitColor(compiled[k], hit, origin, d);
+          }
         }
       }
-      for (int c = 0; c < 3; ++c) out.image.at(x, y, c) = toByte(sum[c] * inv_samples);
+      for (int c = 0; c < 3; ++c) out.image.at(x, y, c) = to_level(sum[c] * inv_samples, x, y, c);
 
-      const Eigen::Vector3d d = rayDirection(Rt, camera, x, y);
-      const Intersection hit = intersect(w, d);
+      const Eigen::Vector3d d = rayDirection(mid_Rt, mid, x, y);
+      const Intersection hit = intersect(mid_world, d);
       if (hit.kind != 0) {
         out.depth.at(x, y) = static_cast<float>(hit.s);
-        const Eigen::Vector3d nc = camera.R * hitNormal(w, hit, origin, d);
+        const Eigen::Vector3d nc = mid.R * hitNormal(mid_world, hit, mid.center(), d);
         for (int c = 0; c < 3; ++c) out.normal.at(x, y, c) = static_cast<float>(nc[c]);
       }
     }
@@ -616,22 +647,26 @@ SyntheticWorld makeIndoorRoomWorld(uint32_t seed) {
   return world;
 }
 
+PinholeCamera smoothTrajectoryCamera(double s, int width, int height, uint32_t seed) {
+  SplitMix rng(seed);
+  const double phase1 = rng.uniform(0, 2 * kPi), phase2 = rng.uniform(0, 2 * kPi),
+               phase3 = rng.uniform(0, 2 * kPi), phase4 = rng.uniform(0, 2 * kPi);
+  const Eigen::Vector3d eye(1.0 + 0.35 * std::sin(kPi * s + phase1), 1.1 + 2.6 * s,
+                            1.45 + 0.1 * std::sin(2 * kPi * s + phase2));
+  const Eigen::Vector3d target(4.0 + 0.2 * std::sin(2 * kPi * s + phase3),
+                               2.5 + 0.25 * std::cos(kPi * s + phase4), 0.5);
+  return makeLookAtCamera(eye, target, Eigen::Vector3d::UnitZ(), width, height, 0.8);
+}
+
 std::vector<PinholeCamera> makeSmoothTrajectory(int count, int width, int height,
                                                 uint32_t seed) {
   if (count < 1 || width < 1 || height < 1) {
     throw InputError("makeSmoothTrajectory: count and image size must be positive");
   }
-  SplitMix rng(seed);
-  const double phase1 = rng.uniform(0, 2 * kPi), phase2 = rng.uniform(0, 2 * kPi),
-               phase3 = rng.uniform(0, 2 * kPi), phase4 = rng.uniform(0, 2 * kPi);
   std::vector<PinholeCamera> cams;
   for (int i = 0; i < count; ++i) {
     const double s = count > 1 ? static_cast<double>(i) / (count - 1) : 0.0;
-    const Eigen::Vector3d eye(1.0 + 0.35 * std::sin(kPi * s + phase1), 1.1 + 2.6 * s,
-                              1.45 + 0.1 * std::sin(2 * kPi * s + phase2));
-    const Eigen::Vector3d target(4.0 + 0.2 * std::sin(2 * kPi * s + phase3),
-                                 2.5 + 0.25 * std::cos(kPi * s + phase4), 0.5);
-    cams.push_back(makeLookAtCamera(eye, target, Eigen::Vector3d::UnitZ(), width, height, 0.8));
+    cams.push_back(smoothTrajectoryCamera(s, width, height, seed));
   }
   return cams;
 }

@@ -144,9 +144,18 @@ PosedSequence readMvsnetSequence(const std::string& dir, const PosedSequenceOpti
   PosedSequence sequence = fromScene(readMvsnetDenseFolder(dir), "mvsnet", dir, options.frame_period_s);
   for (PosedFrame& frame : sequence.frames) {
     char name[32];
-    std::snprintf(name, sizeof(name), "%08lld.pfm", static_cast<long long>(frame.id));
-    const std::string truth = dir + "/depth_gt/" + name;
+    std::snprintf(name, sizeof(name), "%08lld", static_cast<long long>(frame.id));
+    const std::string truth = dir + "/depth_gt/" + name + ".pfm";
     if (fs::exists(truth)) frame.ground_truth.path = truth;  // z-depth in metres, registered
+    const std::string true_pose = dir + "/cams_gt/" + name + "_cam.txt";
+    if (fs::exists(true_pose)) {
+      PinholeCamera camera;
+      double depth_min, depth_max;
+      readMvsnetCam(true_pose, &camera, &depth_min, &depth_max);
+      camera.width = frame.camera.width;
+      camera.height = frame.camera.height;
+      frame.true_camera = camera;
+    }
   }
   return sequence;
 }

@@ -2,39 +2,12 @@
 
 #include <cmath>
 #include <sstream>
-#include <type_traits>
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mvs/matching_cost.h"
 
 namespace amhmvs {
 namespace {
-
-template <typename T>
-T parseNumber(const std::string& name, const std::string& text) {
-  if (std::is_unsigned<T>::value && text.find('-') != std::string::npos) {
-    throw InputError("option " + name + ": '" + text + "' must not be negative");
-  }
-  std::istringstream in(text);
-  T value;
-  if (!(in >> value) || !(in >> std::ws).eof()) {
-    throw InputError("option " + name + ": '" + text + "' is not a valid number");
-  }
-  return value;
-}
-
-template <typename T>
-OptionInfo field(const char* name, T PatchMatchOptions::*member, const char* help) {
-  return {name, help,
-          [member](const PatchMatchOptions& o) {
-            std::ostringstream out;
-            out << o.*member;
-            return out.str();
-          },
-          [member, name](PatchMatchOptions& o, const std::string& text) {
-            o.*member = parseNumber<T>(name, text);
-          }};
-}
 
 template <typename Enum>
 OptionInfo choice(const char* name, Enum PatchMatchOptions::*member, const char* first,
@@ -60,37 +33,37 @@ OptionInfo choice(const char* name, Enum PatchMatchOptions::*member, const char*
 const std::vector<OptionInfo>& patchMatchOptionTable() {
   using O = PatchMatchOptions;
   static const std::vector<OptionInfo> table = {
-      field("iterations", &O::num_iterations, "PatchMatch iterations (paper: 6)"),
-      field("seed", &O::random_seed, "random seed; equal seeds give equal depth maps"),
-      field("window_radius", &O::window_radius, "matching window radius in pixels (paper: 5, 11x11)"),
-      field("window_step", &O::window_step, "window sampling step, 2 = every other row and column"),
-      field("sigma_color", &O::sigma_color, "bilateral weight sigma_I on intensities 0..255 (paper: 3)"),
-      field("sigma_spatial", &O::sigma_spatial, "bilateral weight sigma_x in pixels (paper: 30)"),
+      numberField("iterations", &O::num_iterations, "PatchMatch iterations (paper: 6)"),
+      numberField("seed", &O::random_seed, "random seed; equal seeds give equal depth maps"),
+      numberField("window_radius", &O::window_radius, "matching window radius in pixels (paper: 5, 11x11)"),
+      numberField("window_step", &O::window_step, "window sampling step, 2 = every other row and column"),
+      numberField("sigma_color", &O::sigma_color, "bilateral weight sigma_I on intensities 0..255 (paper: 3)"),
+      numberField("sigma_spatial", &O::sigma_spatial, "bilateral weight sigma_x in pixels (paper: 30)"),
       choice("propagation", &O::propagation, "asymmetric", "symmetric",
              "checkerboard propagation: asymmetric (paper) or symmetric (ablation \\ACP)"),
       choice("view_selection", &O::view_selection, "joint", "topk",
              "view selection: joint multi-hypothesis (paper) or heuristic top-K (ablation \\MHJ)"),
-      field("tau_mc_init", &O::tau_mc_init, "eq. 9 initial good-cost threshold (paper: 0.8)"),
-      field("tau_alpha", &O::tau_alpha, "eq. 9 threshold decay alpha (paper: 90)"),
-      field("tau_up", &O::tau_up, "bad-cost threshold (paper: 1.2)"),
-      field("n1", &O::n1, "a good view has more than n1 good costs (paper: 2)"),
-      field("n2", &O::n2, "a good view has fewer than n2 bad costs (paper: 3)"),
-      field("beta", &O::beta, "eq. 10 confidence width (paper: 0.3)"),
-      field("top_k", &O::top_k, "at most k weighted views per pixel (paper: 4)"),
-      field("best_view_boost", &O::best_view_boost, "eq. 13 factor for last iteration's best view (paper: 2)"),
-      field("previous_selection_weight", &O::previous_selection_weight,
+      numberField("tau_mc_init", &O::tau_mc_init, "eq. 9 initial good-cost threshold (paper: 0.8)"),
+      numberField("tau_alpha", &O::tau_alpha, "eq. 9 threshold decay alpha (paper: 90)"),
+      numberField("tau_up", &O::tau_up, "bad-cost threshold (paper: 1.2)"),
+      numberField("n1", &O::n1, "a good view has more than n1 good costs (paper: 2)"),
+      numberField("n2", &O::n2, "a good view has fewer than n2 bad costs (paper: 3)"),
+      numberField("beta", &O::beta, "eq. 10 confidence width (paper: 0.3)"),
+      numberField("top_k", &O::top_k, "at most k weighted views per pixel (paper: 4)"),
+      numberField("best_view_boost", &O::best_view_boost, "eq. 13 factor for last iteration's best view (paper: 2)"),
+      numberField("previous_selection_weight", &O::previous_selection_weight,
             "eq. 12 weight of a view selected in the last iteration only (paper: 0.2)"),
-      field("heuristic_k", &O::heuristic_k, "K of the top-K aggregation (ablation, empty-set fallback)"),
-      field("bisection_only_iterations", &O::bisection_only_iterations,
+      numberField("heuristic_k", &O::heuristic_k, "K of the top-K aggregation (ablation, empty-set fallback)"),
+      numberField("bisection_only_iterations", &O::bisection_only_iterations,
             "first iterations with bisection refinement only (paper: 3)"),
-      field("bisection_steps", &O::bisection_steps, "bisection samples per pixel and pass"),
-      field("perturbation", &O::perturbation, "relative depth / normal perturbation of the COLMAP-style refinement"),
-      field("max_normal_angle", &O::max_normal_angle_deg, "steepest accepted plane to the viewing ray, degrees"),
-      field("geometric_weight", &O::geometric_weight,
-            "geometric pass: cost per pixel of forward-backward reprojection error (not in the paper)"),
-      field("geometric_max_error", &O::geometric_max_error,
-            "geometric pass: reprojection error cap in pixels (not in the paper)"),
-      field("median_filter", &O::median_filter_size, "median filter size on depth (paper: 4; 0 or 1: off)"),
+      numberField("bisection_steps", &O::bisection_steps, "bisection samples per pixel and pass"),
+      numberField("perturbation", &O::perturbation, "relative depth / normal perturbation of the COLMAP-style refinement"),
+      numberField("max_normal_angle", &O::max_normal_angle_deg, "steepest accepted plane to the viewing ray, degrees"),
+      numberField("geometric_weight", &O::geometric_weight,
+                  "geometric pass: cost per pixel of forward-backward reprojection error (not in the paper)"),
+      numberField("geometric_max_error", &O::geometric_max_error,
+                  "geometric pass: reprojection error cap in pixels (not in the paper)"),
+      numberField("median_filter", &O::median_filter_size, "median filter size on depth (paper: 4; 0 or 1: off)"),
   };
   return table;
 }

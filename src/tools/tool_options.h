@@ -52,16 +52,24 @@ inline bool parseSwitch(const std::string& option, const std::string& value) {
   throw InputError("option --" + option + ": '" + value + "' is not a switch value (1/0, true/false)");
 }
 
-// Sets the method option `name` (patchMatchOptionTable()) from text; false
-// when there is no such option. Throws InputError for a bad value.
-inline bool setPatchMatchOption(const std::string& name, const std::string& value, PatchMatchOptions* options) {
-  for (const OptionInfo& info : patchMatchOptionTable()) {
+// Sets the option `name` of `table` from text; false when the table has no
+// such option. Throws InputError for a bad value.
+template <typename Options>
+bool setOptionFromTable(const std::vector<OptionField<Options>>& table, const std::string& name,
+                        const std::string& value, Options* options) {
+  for (const OptionField<Options>& info : table) {
     if (info.name == name) {
       info.set(*options, value);
       return true;
     }
   }
   return false;
+}
+
+// Sets the method option `name` (patchMatchOptionTable()) from text; false
+// when there is no such option. Throws InputError for a bad value.
+inline bool setPatchMatchOption(const std::string& name, const std::string& value, PatchMatchOptions* options) {
+  return setOptionFromTable(patchMatchOptionTable(), name, value, options);
 }
 
 }  // namespace amhmvs

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/pfm.h"
@@ -43,6 +44,18 @@ double jsonNumber(const std::string& json, const std::string& section, const std
   char* end = nullptr;
   const double value = std::strtod(start, &end);
   return end == start ? NAN : value;
+}
+
+// Each (section, key) of the summary is above its floor.
+struct Floor {
+  const char* section;
+  const char* key;
+  double above;
+};
+void expectAbove(const std::string& summary, const std::vector<Floor>& floors) {
+  for (const Floor& f : floors) {
+    EXPECT_GT(jsonNumber(summary, f.section, f.key), f.above) << f.section << " " << f.key << ": " << summary;
+  }
 }
 
 size_t lineCount(const std::string& path) {
@@ -128,6 +141,33 @@ TEST_F(MapCliRoom, MapsTheRoomWithExactGroundTruth) {
   EXPECT_GT(jsonNumber(summary, "map", "within_2cm_pct"), 84) << summary;
   EXPECT_GT(jsonNumber(summary, "map", "within_5cm_pct"), 98) << summary;
   EXPECT_GT(jsonNumber(summary, "map", "points"), 9000) << summary;
+}
+
+// The same room as the realism mode's default profile renders it (a handheld
+// camera behind a VIO tracker: pose noise and drift, timing offset, rolling
+// shutter, blur, exposure changes, sensor noise): amhmvs_map takes the written
+// poses as the tracker's and reports accuracy against the exact depth.
+TEST(MapCli, RoomWithTheDefaultRealismProfile) {
+  AMHMVS_REQUIRE_DECODER();
+  test::TempDir dir;
+  const CommandResult made = runTool("amhmvs_synthetic", dir.file("room") +
+                                                            " --scene room --views 6 --width 320 --height 240 --realism default");
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  const CommandResult r = runTool("amhmvs_map", dir.file("room") + " " + dir.file("out") +
+                                                     " --backend cpu --max_image_size 160 --iterations 3 --num_sources 3");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::cout << made.output << "\n" << r.output;
+  const std::string summary = readText(dir.file("out/summary.json"));
+  EXPECT_EQ(jsonNumber(summary, "results", "new") + jsonNumber(summary, "results", "late"), 6) << summary;
+  // Measured (CPU): depth within 1/2/5/10 %: 8.4 / 18.2 / 38.0 / 61.5 %,
+  // completeness 98.9 %; map 24 points, 95.8 % within 2 and 5 cm (exact
+  // poses, MapCliRoom above: 91.0 % within 5 %, 11293 points). The pose
+  // noise (2.6 px at 320 px) costs the most; issue 12 is to win it back.
+  expectAbove(summary, {{"depth_accuracy", "within_5pct", 35},
+                        {"depth_accuracy", "within_10pct", 58},
+                        {"depth_accuracy", "completeness_pct", 97},
+                        {"map", "points", 11},
+                        {"map", "within_5cm_pct", 85}});
 }
 
 // Realtime replay at 100x the recording's rate (a frame every 10 ms) with a
@@ -218,11 +258,11 @@ TEST(MapCli, RedkitchenSevenScenesAgainstKinectDepth) {
   // 37.5 % within 2 cm and 93.6 % within 5 cm of the Kinect surface.
   EXPECT_EQ(jsonNumber(summary, "", "keyframes_picked"), 8) << summary;
   EXPECT_EQ(jsonNumber(summary, "results", "new") + jsonNumber(summary, "results", "late"), 8) << summary;
-  EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_5pct"), 45) << summary;
-  EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_10pct"), 62) << summary;
-  EXPECT_GT(jsonNumber(summary, "depth_accuracy", "completeness_pct"), 95) << summary;
-  EXPECT_GT(jsonNumber(summary, "map", "within_5cm_pct"), 90) << summary;
-  EXPECT_GT(jsonNumber(summary, "map", "points"), 250) << summary;
+  expectAbove(summary, {{"depth_accuracy", "within_5pct", 45},
+                        {"depth_accuracy", "within_10pct", 62},
+                        {"depth_accuracy", "completeness_pct", 95},
+                        {"map", "within_5cm_pct", 90},
+                        {"map", "points", 250}});
   const ImageF depth = readPfm(out.file("depth/000042.pfm"));
   EXPECT_EQ(depth.width, 160);
   EXPECT_EQ(depth.height, 120);

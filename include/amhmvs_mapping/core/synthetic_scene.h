@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -96,6 +97,34 @@ struct RenderedView {
 RenderedView renderView(const SyntheticWorld& world, const PinholeCamera& camera,
                         int supersampling = 3);
 
+// The poses one image row is exposed from (rolling shutter, motion blur):
+// `mid`, the row's pose at mid exposure, gives its depth and normal; the
+// row's colour is the mean over `samples` (poses across the exposure time),
+// or the render at `mid` when `samples` is empty. Intrinsics and image size
+// must be those of the view's camera.
+struct RowExposure {
+  PinholeCamera mid;
+  std::vector<PinholeCamera> samples;
+};
+
+// A pixel's stored level from its mean radiance (RGB in [0, 255]): renderView
+// rounds and clips; a sensor model adds gain and noise first. Called from
+// several threads at once.
+using RadianceToLevel = std::function<uint8_t(double radiance, int x, int y, int channel)>;
+
+// Rounds to the nearest level and clips to 0..255 (renderView's conversion).
+uint8_t radianceToByte(double radiance);
+
+// renderView with a pose per row (row_exposure(y), called once per row, in
+// order, before any ray is cast) and a conversion of radiance to levels. Each ray is cast
+// as renderView casts it, so with row_exposure(y) = {camera, {}} and
+// radianceToByte it returns renderView's result bit for bit. Rays per pixel:
+// supersampling^2 times the number of samples. `camera` is the view's
+// nominal camera (RenderedView::camera).
+RenderedView renderViewByRows(const SyntheticWorld& world, const PinholeCamera& camera,
+                              const std::function<RowExposure(int row)>& row_exposure, int supersampling,
+                              const RadianceToLevel& to_level);
+
 // A camera at `eye` looking at `target`, image x axis horizontal with respect
 // to `up` (world up, need not be unit), fx = fy = focal_ratio * width,
 // principal point at the image centre ((width-1)/2, (height-1)/2).
@@ -129,5 +158,10 @@ SyntheticWorld makeIndoorRoomWorld(uint32_t seed);
 // height, near the x = 0.5..1.5 side of the room) looking mostly at the boxes
 // (around (4, 2.5, 0.5)). focal ratio 0.8; `seed` varies the path smoothly.
 std::vector<PinholeCamera> makeSmoothTrajectory(int count, int width, int height, uint32_t seed);
+
+// The camera of that path at path parameter `s` (makeSmoothTrajectory's view
+// i is s = i / (count - 1), bit for bit); any s, for poses between and
+// beyond the views.
+PinholeCamera smoothTrajectoryCamera(double s, int width, int height, uint32_t seed);
 
 }  // namespace amhmvs

@@ -2,8 +2,9 @@
 // ordered list of frames (image, pinhole camera with its world-to-camera
 // pose, stamp, optional ground-truth depth). The layout is detected from the
 // folder:
-//   - MVSNet dense folder (cams/, images/, pair.txt; depth_gt/NNNNNNNN.pfm as
-//     written by amhmvs_synthetic is its ground truth);
+//   - MVSNet dense folder (cams/, images/, pair.txt; depth_gt/NNNNNNNN.pfm and
+//     cams_gt/NNNNNNNN_cam.txt as written by amhmvs_synthetic are its ground
+//     truth);
 //   - COLMAP workspace (sparse/[0/] text or .bin, images/);
 //   - 7-Scenes / tsdf-fusion: frame-NNNNNN.color.(jpg|png|ppm|pgm), .pose.txt
 //     (camera-to-world of the DEPTH camera, metres), .depth.png|pgm (uint16 mm,
@@ -16,6 +17,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -49,6 +51,9 @@ struct PosedFrame {
   PinholeCamera camera;    // colour camera at the image file's resolution
   double depth_min = 0, depth_max = 0;  // given depth range (MVSNet, COLMAP), else 0
   GroundTruthDepthSource ground_truth;
+  // The true pose where `camera` is a tracker's (MVSNet cams_gt/NNNNNNNN_cam.txt,
+  // as amhmvs_synthetic --realism writes it): for reports only.
+  std::optional<PinholeCamera> true_camera;
 };
 
 struct PosedSequence {

@@ -79,20 +79,13 @@ std::string describe(const PatchMatchOptions& options);
 
 }  // namespace amhmvs
 
-#include <functional>
+#include "amhmvs_mapping/core/option_field.h"
 
 namespace amhmvs {
 
-// One documented option: its command-line / parameter name, meaning, and
-// accessors by text. The table is the single list used by --help, the CLI
-// parser, the ROS parameter loader and the docs.
-struct OptionInfo {
-  std::string name;
-  std::string help;
-  std::function<std::string(const PatchMatchOptions&)> get;
-  // Throws InputError when the text is not a value of the option's type.
-  std::function<void(PatchMatchOptions&, const std::string&)> set;
-};
+// One documented option of the estimator (OptionField: name, meaning,
+// accessors by text).
+using OptionInfo = OptionField<PatchMatchOptions>;
 const std::vector<OptionInfo>& patchMatchOptionTable();
 
 }  // namespace amhmvs
