@@ -45,6 +45,7 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"depth_maps", &PipelineStats::depth_maps},
       {"late_depth_maps", &PipelineStats::late_depth_maps},
       {"refined_depth_maps", &PipelineStats::refined_depth_maps},
+      {"refinements_rejected", &PipelineStats::refinements_rejected},
       {"keyframes_without_sources", &PipelineStats::keyframes_without_sources},
       {"keyframes_fused", &PipelineStats::keyframes_fused},
       {"keyframes_fused_again", &PipelineStats::keyframes_fused_again},
@@ -352,6 +353,16 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
                    : what + " depth map of " + keyframeName(output.result.id) + " failed") +
                ": " + reason);
     return true;  // work was attempted
+  }
+  if (output.result.refinement_rejected) {
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.refinements_rejected;
+    }
+    report(LogLevel::kInfo, "refinement",
+           "refinement of " + keyframeName(output.result.id) + " rejected, it keeps its depth map (" +
+               output.result.refinement_evidence + ")");
+    return true;  // nothing new to publish
   }
   output.result.times.queue_wait_ms = queue_wait_ms;
   // Keyframe ids are the estimator's image keys: an evicted keyframe's image

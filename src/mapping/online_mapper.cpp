@@ -9,6 +9,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/core/stopwatch.h"
 #include "amhmvs_mapping/mapping/map_export.h"
+#include "amhmvs_mapping/mapping/refinement_evidence.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
 
 namespace amhmvs {
@@ -55,6 +56,7 @@ std::string RefinementOptions::validate() const {
   if (max_refinements < 0) why << "max_refinements must be >= 0 (got " << max_refinements << ")\n";
   if (!(std::isfinite(min_score_gain) && min_score_gain > 1))
     why << "min_score_gain must be finite and > 1 (got " << min_score_gain << ")\n";
+  if (!(confident_cost >= 0)) why << "confident_cost must be >= 0 (got " << confident_cost << ")\n";
   return why.str();
 }
 
@@ -185,13 +187,23 @@ void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
   result->depth = estimate_(problem);
   result->times.estimate_ms = millisecondsSince(start);
   result->has_depth = true;
+  if (result->refined && options_.refinement.keep_only_better) {
+    const RefinementVerdict verdict =
+        judgeRefinement(store_.entry(id).depth, result->depth, options_.refinement.confident_cost);
+    result->refinement_evidence = verdict.reason;
+    result->refinement_rejected = !verdict.keep_new;
+  }
+  EstimateRecord& record = estimates_[id];
+  record.sources = sources;  // also when rejected: the same selection is not tried again
+  record.score = selectionScore(result->selection);
+  if (result->refinement_rejected) {
+    result->waiting_for_fusion = waiting_.size();
+    return;
+  }
   start = Clock::now();
   noteEvicted(store_.attachDepth(id, result->depth), result);
   result->times.store_ms += millisecondsSince(start);
   if (!store_.contains(id)) return;
-  EstimateRecord& record = estimates_[id];
-  record.sources = sources;
-  record.score = selectionScore(result->selection);
   // A keyframe with a depth map waits for fusion (a refined one again); this
   // depth map may also complete earlier waiting keyframes.
   if (std::find(waiting_.begin(), waiting_.end(), id) == waiting_.end()) waiting_.push_back(id);

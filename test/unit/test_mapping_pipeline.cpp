@@ -3,6 +3,7 @@
 // with an injected estimator that returns the exact depth of a wall.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <set>
 #include <string>
 #include <vector>
@@ -121,6 +122,19 @@ TEST(MappingPipeline, RefinementWaitsWhileKeyframesAreQueued) {
   }
   ASSERT_LT(first_refined, order.size()) << "no refinement happened";
   EXPECT_LT(last_new, first_refined);
+}
+
+TEST(MappingPipeline, RejectedRefinementIsCountedLoggedAndNotPublished) {
+  WallPipeline wall(wallPipeline(), test::wallDepthWithABadRefinementOfKeyframe0);
+  for (int i = 0; i < 3; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
+  std::vector<std::string> order;
+  wall.pipeline.runUntilIdle([&](const PipelineOutput& output) { order.push_back(describe({output})[0]); });
+  EXPECT_EQ(std::count(order.begin(), order.end(), "refined 0"), 0) << "a rejected refinement was published";
+  EXPECT_EQ(std::count(order.begin(), order.end(), "refined 1"), 1);
+  const PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.refinements_rejected, 1u);
+  EXPECT_EQ(stats.refined_depth_maps, 1u);
+  EXPECT_TRUE(wall.logged("refinement of keyframe 0 rejected, it keeps its depth map (median cost 0.1 -> 0.9"));
 }
 
 TEST(MappingPipeline, FailingGpuFallsBackToTheCpuAndIsCounted) {

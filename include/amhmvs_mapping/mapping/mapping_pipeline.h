@@ -83,7 +83,8 @@ struct PipelineStats {
   // Work done.
   uint64_t depth_maps = 0;             // first depth maps (late ones included)
   uint64_t late_depth_maps = 0;
-  uint64_t refined_depth_maps = 0;
+  uint64_t refined_depth_maps = 0;     // refinements kept (better by the estimator's evidence)
+  uint64_t refinements_rejected = 0;   // refinements worse than the depth map they would replace: dropped
   uint64_t keyframes_without_sources = 0;  // stored as a source only when they arrived
   uint64_t keyframes_fused = 0;
   uint64_t keyframes_fused_again = 0;
