@@ -57,6 +57,8 @@ std::string RefinementOptions::validate() const {
   if (!(std::isfinite(min_score_gain) && min_score_gain > 1))
     why << "min_score_gain must be finite and > 1 (got " << min_score_gain << ")\n";
   if (!(confident_cost >= 0)) why << "confident_cost must be >= 0 (got " << confident_cost << ")\n";
+  if (!(max_confident_loss >= 0 && max_confident_loss < 1))
+    why << "max_confident_loss must be in [0, 1) (got " << max_confident_loss << ")\n";
   return why.str();
 }
 
@@ -189,7 +191,8 @@ void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
   result->has_depth = true;
   if (result->refined && options_.refinement.keep_only_better) {
     const RefinementVerdict verdict =
-        judgeRefinement(store_.entry(id).depth, result->depth, options_.refinement.confident_cost);
+        judgeRefinement(store_.entry(id).depth, result->depth, options_.refinement.confident_cost,
+                        options_.refinement.max_confident_loss);
     result->refinement_evidence = verdict.reason;
     result->refinement_rejected = !verdict.keep_new;
   }

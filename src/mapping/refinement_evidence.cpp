@@ -20,7 +20,8 @@ size_t validPixels(const ImageF& depth) {
 
 }  // namespace
 
-RefinementVerdict judgeRefinement(const DepthMap& old_map, const DepthMap& new_map, double confident_cost) {
+RefinementVerdict judgeRefinement(const DepthMap& old_map, const DepthMap& new_map, double confident_cost,
+                                  double max_confident_loss) {
   RefinementVerdict verdict;
   if (!new_map.depth.sameSize(old_map.depth.width, old_map.depth.height)) {
     throw InputError("refinement: the new depth map's size differs from the old one's");
@@ -46,13 +47,13 @@ RefinementVerdict judgeRefinement(const DepthMap& old_map, const DepthMap& new_m
     verdict.old_map.median_cost = medianOf(old_costs);
     verdict.new_map.median_cost = medianOf(new_costs);
   }
-  verdict.keep_new = verdict.new_map.median_cost <= verdict.old_map.median_cost &&
-                     verdict.new_map.confident_pixels >= verdict.old_map.confident_pixels;
+  verdict.keep_new = static_cast<double>(verdict.new_map.confident_pixels) >=
+                     (1 - max_confident_loss) * static_cast<double>(verdict.old_map.confident_pixels);
   std::ostringstream reason;
   reason.precision(3);
-  reason << "median cost " << verdict.old_map.median_cost << " -> " << verdict.new_map.median_cost << " on "
-         << verdict.common_pixels << " common pixels, confident pixels " << verdict.old_map.confident_pixels << " -> "
-         << verdict.new_map.confident_pixels;
+  reason << "confident pixels " << verdict.old_map.confident_pixels << " -> " << verdict.new_map.confident_pixels
+         << ", median cost " << verdict.old_map.median_cost << " -> " << verdict.new_map.median_cost << " on "
+         << verdict.common_pixels << " common pixels";
   verdict.reason = reason.str();
   return verdict;
 }

@@ -99,6 +99,7 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "refinement/min_score_gain", &o->refinement.min_score_gain);
   read(nh, "refinement/keep_only_better", &o->refinement.keep_only_better);
   read(nh, "refinement/confident_cost", &o->refinement.confident_cost);
+  read(nh, "refinement/max_confident_loss", &o->refinement.max_confident_loss);
 }
 
 // Each group of the mapping core checked on its own: a bad group is

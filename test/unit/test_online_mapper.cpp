@@ -233,7 +233,8 @@ TEST(OnlineMapper, RefinementWorseByTheEstimatorsEvidenceIsRejectedAndABetterOne
   ASSERT_TRUE(mapper.refine(&result));
   EXPECT_EQ(result.id, 0);
   EXPECT_TRUE(result.refinement_rejected);
-  EXPECT_NE(result.refinement_evidence.find("median cost 0.1 -> 0.9"), std::string::npos) << result.refinement_evidence;
+  EXPECT_NE(result.refinement_evidence.find("confident pixels 768 -> 0, median cost 0.1 -> 0.9"), std::string::npos)
+      << result.refinement_evidence;
   EXPECT_TRUE(result.fused.empty());
   EXPECT_FLOAT_EQ(mapper.store().entry(0).depth.depth.at(3, 3), static_cast<float>(kWallZ));
   EXPECT_FLOAT_EQ(mapper.store().entry(0).depth.cost.at(3, 3), 0.1f);
@@ -279,7 +280,10 @@ TEST(OnlineMapper, RefinementCanBeSwitchedOffAndItsOptionsAreChecked) {
   EXPECT_THROW(OnlineMapper(options, wallDepth), InputError);
   options.refinement.max_refinements = 1;
   options.refinement.confident_cost = -0.1;
+  options.refinement.max_confident_loss = 1;
   EXPECT_NE(options.validate().find("refinement: confident_cost must be >= 0"), std::string::npos)
+      << options.validate();
+  EXPECT_NE(options.validate().find("refinement: max_confident_loss must be in [0, 1)"), std::string::npos)
       << options.validate();
 }
 

@@ -31,7 +31,7 @@
 // refinement.max_refinements times) once its selection now would score at
 // least refinement.min_score_gain times the one it was estimated with, and
 // fuses it again (its map points are replaced) -- when the new depth map is
-// better by the estimator's own evidence (refinement_evidence.h: median cost,
+// not worse by the estimator's own evidence (refinement_evidence.h:
 // confident pixels; refinement.keep_only_better); otherwise the keyframe
 // keeps its depth map and fusion (result.refinement_rejected).
 //
@@ -71,11 +71,13 @@ struct RefinementOptions {
   // Re-estimate when the selection's total score (sum of the sources'
   // overlap x G(angle)) grew by this factor since the estimate (> 1).
   double min_score_gain = 1.25;
-  // Keep a refined depth map only when it is better by the estimator's
-  // evidence (judgeRefinement; false: always replace); confident pixels have
-  // a cost (0..2) <= confident_cost.
+  // Keep a refined depth map only when it is not worse by the estimator's
+  // evidence (judgeRefinement: confident pixels, cost (0..2) <=
+  // confident_cost, at least (1 - max_confident_loss) times the old map's;
+  // false: always replace).
   bool keep_only_better = true;
   double confident_cost = 0.5;
+  double max_confident_loss = 0.02;
 
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;
