@@ -134,8 +134,10 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
   std::ostringstream err;
   read(pnh, "input_mode", &c.input_mode);
   read(pnh, "fixed_frame", &c.fixed_frame);
+  read(pnh, "view_frame", &c.view_frame);
   read(pnh, "tf_timeout", &c.tf_timeout);
   read(pnh, "queue_size", &c.queue_size);
+  read(pnh, "skip_to_newest", &c.skip_to_newest);
   read(pnh, "sync_queue_size", &c.sync_queue_size);
   read(pnh, "sync_max_interval", &c.sync_max_interval);
   read(pnh, "keyframe_min_translation", &c.keyframe_min_translation);
