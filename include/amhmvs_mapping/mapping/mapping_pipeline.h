@@ -208,8 +208,8 @@ class MappingPipeline {
            std::vector<PipelineOutput>* outputs, double queue_wait_ms);
   void account(const PipelineOutput& output);
   void report(LogLevel level, const std::string& kind, const std::string& line);
-  // The queue's keyframe behind the newest: what the input and the estimator
-  // measure, and what to change (a log line's end).
+  // Why the input outruns the estimator, measured (keyframe interval, time
+  // per keyframe), and what to change: the end of the overload log lines.
   std::string overloadAdvice() const;
   // Step 2's keyframe: the oldest queued, or after an overflow the newest
   // (the others dropped and counted). False when nothing is queued.
