@@ -51,6 +51,7 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"refined_depth_maps", &PipelineStats::refined_depth_maps},
       {"refinements_rejected", &PipelineStats::refinements_rejected},
       {"keyframes_without_sources", &PipelineStats::keyframes_without_sources},
+      {"skipped_kept_as_sources", &PipelineStats::skipped_kept_as_sources},
       {"keyframes_fused", &PipelineStats::keyframes_fused},
       {"keyframes_fused_again", &PipelineStats::keyframes_fused_again},
       {"map_points_added", &PipelineStats::map_points_added},
@@ -245,13 +246,15 @@ std::string MappingPipeline::overloadAdvice() const {
   return out.str();
 }
 
-bool MappingPipeline::takeNextKeyframe(Queued* next) {
+bool MappingPipeline::takeNextKeyframe(Queued* next, std::vector<Keyframe>* sources) {
   size_t skipped = 0;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     if (queue_.empty()) return false;
     if (options_.skip_to_newest && overflowed_) {
       skipped = queue_.size() - 1;
+      const size_t kept = std::min<size_t>(skipped, static_cast<size_t>(options_.mapper.sources.max_sources));
+      for (auto it = queue_.end() - 1 - kept; it != queue_.end() - 1; ++it) sources->push_back(std::move(it->keyframe));
       queue_.erase(queue_.begin(), queue_.end() - 1);
     }
     overflowed_ = false;
@@ -266,7 +269,8 @@ bool MappingPipeline::takeNextKeyframe(Queued* next) {
   }
   report(LogLevel::kWarn, "skipped_for_newer",
          "input outran the estimator: skipped " + std::to_string(skipped) + " queued keyframes to the newest (" +
-             keyframeName(next->keyframe.id) + "), " + std::to_string(total) + " skipped so far; " + overloadAdvice());
+             keyframeName(next->keyframe.id) + "; the last " + std::to_string(sources->size()) +
+             " stay as its source views), " + std::to_string(total) + " skipped so far; " + overloadAdvice());
   return true;
 }
 
@@ -462,9 +466,22 @@ std::vector<PipelineOutput> MappingPipeline::step() {
   applyPending();
   std::vector<PipelineOutput> outputs;
   Queued next;
-  const bool have_keyframe = takeNextKeyframe(&next);
+  std::vector<Keyframe> skipped_sources;
+  const bool have_keyframe = takeNextKeyframe(&next, &skipped_sources);
   bool worked = false;
   std::lock_guard<std::mutex> lock(mapper_mutex_);
+  for (Keyframe& source : skipped_sources) {
+    const int64_t id = source.id;
+    try {
+      const std::vector<int64_t> evicted = mapper_->addSourceView(std::move(source));
+      if (estimator_)
+        for (int64_t gone : evicted) estimator_->forget(gone);
+      std::lock_guard<std::mutex> stats(stats_mutex_);
+      ++stats_.skipped_kept_as_sources;
+    } catch (const InputError& e) {
+      report(LogLevel::kError, "keyframe", "skipped " + keyframeName(id) + " not kept as a source: " + e.what());
+    }
+  }
   if (have_keyframe) {
     const double wait_ms = 1000 * (steadySeconds() - next.pushed_at);
     const int64_t id = next.keyframe.id;

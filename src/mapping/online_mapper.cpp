@@ -99,11 +99,7 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
   result.times.selection_ms = millisecondsSince(selection_start);
 
   if (result.selection.source_ids.empty()) {
-    // Kept as a source: done, with a depth map that has no valid pixel.
-    const PinholeCamera& camera = store_.keyframe(id).camera;
-    DepthMap none;
-    none.depth = ImageF(camera.width, camera.height, 1, std::numeric_limits<float>::quiet_NaN());
-    noteEvicted(store_.attachDepth(id, std::move(none)), &result);
+    markSourceOnly(id, &result);
     if (store_.contains(id)) waiting_for_sources_.push_back(id);
     result.waiting_for_fusion = waiting_.size();
     result.times.total_ms = millisecondsSince(start);
@@ -118,6 +114,23 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
   }
   result.times.total_ms = millisecondsSince(start);
   return result;
+}
+
+void OnlineMapper::markSourceOnly(int64_t id, KeyframeResult* result) {
+  // Done, with a depth map that has no valid pixel (and no normals: never a
+  // consistency view of fusion).
+  const PinholeCamera& camera = store_.keyframe(id).camera;
+  DepthMap none;
+  none.depth = ImageF(camera.width, camera.height, 1, std::numeric_limits<float>::quiet_NaN());
+  noteEvicted(store_.attachDepth(id, std::move(none)), result);
+}
+
+std::vector<int64_t> OnlineMapper::addSourceView(Keyframe keyframe) {
+  KeyframeResult result;
+  const int64_t id = keyframe.id;
+  noteEvicted(store_.add(std::move(keyframe)), &result);
+  markSourceOnly(id, &result);
+  return result.evicted;
 }
 
 bool OnlineMapper::estimateLate(KeyframeResult* result) {

@@ -84,15 +84,25 @@ TEST(MappingPipeline, AfterAnOverflowTheNewestKeyframeIsTakenAndTheSkippedOnesCo
   PipelineStats stats = wall.pipeline.stats();
   EXPECT_EQ(stats.dropped_queue_full, 3u);
   EXPECT_EQ(stats.queued, 3u);
-  const std::vector<std::string> next = describe(wall.pipeline.step());
+  const std::vector<PipelineOutput> outputs = wall.pipeline.step();
+  const std::vector<std::string> next = describe(outputs);
   ASSERT_FALSE(next.empty());
   EXPECT_EQ(next[0], "new 7");
+  // The skipped 5 and 6 have no depth map of their own but stay as sources.
+  const std::vector<int64_t>& sources = outputs[0].result.selection.source_ids;
+  EXPECT_NE(std::find(sources.begin(), sources.end(), 6), sources.end());
+  wall.pipeline.withMapper([](const OnlineMapper& mapper) {
+    EXPECT_TRUE(mapper.store().contains(5) && mapper.store().contains(6));
+    EXPECT_FALSE(mapper.store().contains(4));
+  });
   stats = wall.pipeline.stats();
   EXPECT_EQ(stats.dropped_skipped_for_newer, 2u);
+  EXPECT_EQ(stats.skipped_kept_as_sources, 2u);
   EXPECT_EQ(stats.queued, 0u);
   EXPECT_EQ(stats.droppedTotal(), 5u);
   EXPECT_EQ(stats.keyframes_received, 8u);
-  EXPECT_TRUE(wall.logged("skipped 2 queued keyframes to the newest (keyframe 7), 2 skipped so far"));
+  EXPECT_TRUE(wall.logged("skipped 2 queued keyframes to the newest (keyframe 7; the last 2 stay as its source "
+                          "views), 2 skipped so far"));
   EXPECT_TRUE(wall.logged("raise the keyframe distance"));
   // The input measured: how many keyframes can be mapped.
   EXPECT_TRUE(wall.logged("a keyframe arrives every ")) << wall.log.back();

@@ -130,6 +130,21 @@ TEST(OnlineMapper, KeyframeWithoutSourceGetsItsDepthMapOnceALaterKeyframeQualifi
   for (const Eigen::Vector3f& p : mapper.map().exportCloud().points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
 }
 
+TEST(OnlineMapper, SourceViewServesLaterKeyframesAndNeverGetsADepthMap) {
+  OnlineMapper mapper(wallOptions(), wallDepth);
+  EXPECT_TRUE(mapper.addSourceView(keyframeAt(0, 0.0)).empty());
+  const KeyframeResult result = mapper.process(keyframeAt(1, 0.5));
+  EXPECT_TRUE(result.has_depth);
+  EXPECT_EQ(result.selection.source_ids, std::vector<int64_t>{0});
+  EXPECT_TRUE(mapper.waitingForSources().empty());
+  KeyframeResult late;
+  EXPECT_FALSE(mapper.estimateLate(&late));
+  EXPECT_FALSE(mapper.refine(&late));
+  const ImageF& depth = mapper.store().entry(0).depth.depth;
+  EXPECT_TRUE(std::all_of(depth.data.begin(), depth.data.end(), [](float d) { return std::isnan(d); }));
+  EXPECT_THROW(mapper.addSourceView(keyframeAt(0, 1.0)), InputError);  // duplicate id
+}
+
 TEST(OnlineMapper, KeyframeThatNeverGetsASourceIsCountedWhenEvicted) {
   OnlineMapperOptions options = wallOptions();
   options.store.max_keyframes = 2;

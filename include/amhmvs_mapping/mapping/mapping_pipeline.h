@@ -15,8 +15,10 @@
 //     has overflowed the input is faster than the estimator, and the next
 //     keyframe taken is the NEWEST: the older queued ones are dropped too
 //     (skip_to_newest, counted), so that the map follows the camera instead
-//     of working through a stale backlog. A burst that fits the queue (a
-//     short bag) is processed in order, every keyframe;
+//     of working through a stale backlog; the newest max_sources of them
+//     stay in the store as source views (no depth map of their own), so that
+//     the newest keyframe still has near partners. A burst that fits the
+//     queue (a short bag) is processed in order, every keyframe;
 //   - the depth estimator with its CPU fallback (FallbackEstimator: a GPU
 //     failure reruns the keyframe on the CPU; after switch_to_cpu_after
 //     failures in a row every keyframe does);
@@ -82,7 +84,7 @@ struct PipelineStats {
   // Input.
   uint64_t keyframes_received = 0;     // push() calls that were accepted into the queue
   uint64_t dropped_queue_full = 0;     // oldest queued keyframes dropped for newer ones
-  uint64_t dropped_skipped_for_newer = 0;  // queued keyframes skipped to the newest after an overflow
+  uint64_t dropped_skipped_for_newer = 0;  // queued keyframes skipped to the newest after an overflow (no depth map)
   uint64_t dropped_invalid = 0;        // keyframes the mapper refused (InputError)
   uint64_t dropped_backend_error = 0;  // keyframes whose estimate failed on every backend
   uint64_t dropped_processing_error = 0;  // any other exception while processing
@@ -94,6 +96,7 @@ struct PipelineStats {
   uint64_t refined_depth_maps = 0;     // refinements kept (better by the estimator's evidence)
   uint64_t refinements_rejected = 0;   // refinements worse than the depth map they would replace: dropped
   uint64_t keyframes_without_sources = 0;  // stored as a source only when they arrived
+  uint64_t skipped_kept_as_sources = 0;    // skipped keyframes stored as source views of the newer ones
   uint64_t keyframes_fused = 0;
   uint64_t keyframes_fused_again = 0;
   uint64_t map_points_added = 0;
@@ -212,8 +215,9 @@ class MappingPipeline {
   // per keyframe), and what to change: the end of the overload log lines.
   std::string overloadAdvice() const;
   // Step 2's keyframe: the oldest queued, or after an overflow the newest
-  // (the others dropped and counted). False when nothing is queued.
-  bool takeNextKeyframe(Queued* next);
+  // (the others dropped and counted; the newest max_sources of them, oldest
+  // first, into `sources`). False when nothing is queued.
+  bool takeNextKeyframe(Queued* next, std::vector<Keyframe>* sources);
 
   PipelineOptions options_;
   Log log_;

@@ -185,6 +185,12 @@ class OnlineMapper {
   // the keyframe was removed from the store again.
   KeyframeResult process(Keyframe keyframe);
 
+  // Stores a keyframe as a source view only: no depth map of its own, ever
+  // (e.g. one skipped for a newer keyframe while estimation lags behind).
+  // Returns the keyframes evicted from the store. Throws InputError for an
+  // invalid keyframe (nothing changes).
+  std::vector<int64_t> addSourceView(Keyframe keyframe);
+
   // Keyframes that had no source view when they arrived are re-checked,
   // oldest first; the first that has sources now gets its depth map and
   // fusion as in process() (result->late is true). At most one per call, so
@@ -259,6 +265,8 @@ class OnlineMapper {
   KeyframePoints fuse(int64_t id, const std::vector<int64_t>& view_ids) const;
   // Re-checks every waiting keyframe; fuses those with enough views.
   void fuseWaiting(KeyframeResult* result);
+  // Marks stored keyframe `id` done without depth (a source only).
+  void markSourceOnly(int64_t id, KeyframeResult* result);
   // Records evictions in the result; drops evicted waiting keyframes.
   void noteEvicted(const std::vector<int64_t>& evicted, KeyframeResult* result);
 
