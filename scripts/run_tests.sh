@@ -135,8 +135,9 @@ grep -E "executions|FINDING" "$core_results/fuzzers.log" || true
 # and hostile input; the fountain and temple bags again on the shipped
 # config/mapping.yaml (nothing tuned: a depth image for every keyframe, nothing
 # dropped) and the redkitchen bag on it (real Kinect video, depth against the
-# Kinect's), depth_image_proc/point_cloud_xyz + the 16UC1 output on ours, and
-# the fountain bag as JPEG through the `compressed` transport.
+# Kinect's), depth_image_proc/point_cloud_xyz + the 16UC1 output on ours,
+# the fountain bag as JPEG through the `compressed` transport, and a part of
+# it played by mapping.launch's rate/start/duration (with the rviz view frame).
 echo "== ROS tests (message conversions; rostest) =="
 ros_results=$build/test_results/ros
 rm -rf "$ros_results"
@@ -176,7 +177,8 @@ if [ -f "$bag" ]; then
              "temple_shipped_defaults replay_map.test scene:=temple defaults:=true" \
              "redkitchen_shipped_defaults replay_map.test scene:=redkitchen defaults:=true bag:=$kitchen_bag" \
              "depth_interop depth_interop.test" \
-             "fountain_compressed_jpeg replay_fountain.test compressed:=jpeg"; do
+             "fountain_compressed_jpeg replay_fountain.test compressed:=jpeg" \
+             "replay_part replay_part.test"; do
     read -r name file args <<< "$run"
     dir=$ros_results/$name
     mkdir -p "$dir"
@@ -188,7 +190,7 @@ if [ -f "$bag" ]; then
 else
   echo "rostest: skipped, no bag at $bag"
   ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped
-             skipped skipped)
+             skipped skipped skipped)
 fi
 
 # The package the way a ROS user builds it: in a fresh catkin workspace

@@ -23,12 +23,13 @@ double interpolatedPercentile(std::vector<double>& values, double p) {
   return low + (position - below) * (high - low);
 }
 
-// Widened percentile range of `depths`; false (with `why`) when it is not a
-// finite 0 < min < max range.
+// Widened percentile range of `depths` (percentiles low/high_percentile);
+// false (with `why`) when it is not a finite 0 < min < max range.
 bool rangeFromSamples(std::vector<double>& depths, const DepthRangeOptions& options,
-                      DepthRangeEstimate* estimate, std::string* why) {
-  const double low = interpolatedPercentile(depths, options.low_percentile);
-  const double high = interpolatedPercentile(depths, options.high_percentile);
+                      DepthRangeEstimate* estimate, std::string* why, double low_percentile,
+                      double high_percentile) {
+  const double low = interpolatedPercentile(depths, low_percentile);
+  const double high = interpolatedPercentile(depths, high_percentile);
   const double min = low * options.near_factor;
   const double max = high * options.far_factor;
   if (!(std::isfinite(min) && std::isfinite(max) && min > 0 && min < max)) {
@@ -41,6 +42,11 @@ bool rangeFromSamples(std::vector<double>& depths, const DepthRangeOptions& opti
   estimate->max = max;
   estimate->samples = depths.size();
   return true;
+}
+
+bool rangeFromSamples(std::vector<double>& depths, const DepthRangeOptions& options,
+                      DepthRangeEstimate* estimate, std::string* why) {
+  return rangeFromSamples(depths, options, estimate, why, options.low_percentile, options.high_percentile);
 }
 
 std::string rangeText(double min, double max) {
@@ -84,6 +90,12 @@ std::string DepthRangeOptions::validate() const {
   if (!(std::isfinite(far_factor) && far_factor >= 1)) {
     why << "far_factor must be finite and >= 1 (got " << far_factor << ")\n";
   }
+  if (!(neighbour_low_percentile >= 0 && neighbour_low_percentile < neighbour_high_percentile &&
+        neighbour_high_percentile <= 100)) {
+    why << "neighbour percentiles must satisfy 0 <= low < high <= 100 (got " << neighbour_low_percentile << ", "
+        << neighbour_high_percentile << ")\n";
+  }
+  if (!(max_neighbour_cost >= 0)) why << "max_neighbour_cost must be >= 0 (got " << max_neighbour_cost << ")\n";
   if (min_sparse_points < 1) why << "min_sparse_points must be positive\n";
   if (min_depth_samples < 1) why << "min_depth_samples must be positive\n";
   if (depth_map_stride < 1) why << "depth_map_stride must be positive\n";
@@ -143,8 +155,10 @@ DepthRangeEstimate estimateDepthRange(const Keyframe& keyframe,
     tried << depths.size() << " sparse points in view < " << options.min_sparse_points << "; ";
   }
 
-  // 3. Finished depth maps of overlapping keyframes, reprojected.
+  // 3. Finished depth maps of overlapping keyframes, reprojected: confident
+  // pixels, or every valid one when too few are confident.
   depths.clear();
+  std::vector<double> unconfident;
   for (const NeighbourDepth& neighbour : neighbours) {
     const std::string neighbour_name = "neighbour keyframe " + std::to_string(neighbour.id);
     if (neighbour.camera == nullptr || neighbour.depth == nullptr) {
@@ -166,21 +180,34 @@ DepthRangeEstimate estimateDepthRange(const Keyframe& keyframe,
           << "x" << other.height << "x1";
       throw InputError(why.str());
     }
+    const ImageF* cost = neighbour.cost;
+    if (cost != nullptr && (!cost->sameSize(depth.width, depth.height) || cost->channels != 1)) {
+      throw InputError("depth range: " + name + ": " + neighbour_name + ": cost image does not match its depth map");
+    }
     const RelativePose to_target = relativePose(other, camera);
     for (int y = 0; y < depth.height; y += options.depth_map_stride) {
       for (int x = 0; x < depth.width; x += options.depth_map_stride) {
         const double d = depth.at(x, y);
         if (!(std::isfinite(d) && d > 0)) continue;
-        addDepthIfSeen(camera, to_target.R * other.backproject(x, y, d) + to_target.t, &depths);
+        // NaN cost (nothing scored) is not confident either.
+        const bool confident = cost == nullptr || cost->at(x, y) <= options.max_neighbour_cost;
+        addDepthIfSeen(camera, to_target.R * other.backproject(x, y, d) + to_target.t,
+                       confident ? &depths : &unconfident);
       }
     }
   }
+  std::string which = "confident ";
+  if (static_cast<int>(depths.size()) < options.min_depth_samples) {
+    which = "(too few confident: " + std::to_string(depths.size()) + ") ";
+    depths.insert(depths.end(), unconfident.begin(), unconfident.end());
+  }
   if (static_cast<int>(depths.size()) >= options.min_depth_samples) {
     std::string why;
-    if (rangeFromSamples(depths, options, &estimate, &why)) {
+    if (rangeFromSamples(depths, options, &estimate, &why, options.neighbour_low_percentile,
+                         options.neighbour_high_percentile)) {
       estimate.source = DepthRangeSource::kNeighbourDepthMaps;
-      estimate.reason = tried.str() + "from " + std::to_string(depths.size()) +
-                        " depth samples of " + std::to_string(neighbours.size()) +
+      estimate.reason = tried.str() + "from " + std::to_string(depths.size()) + " " + which +
+                        "depth samples of " + std::to_string(neighbours.size()) +
                         " neighbour depth maps " + rangeText(estimate.min, estimate.max);
       return estimate;
     }
@@ -208,7 +235,8 @@ DepthRangeEstimate estimateDepthRange(const KeyframeStore& store, int64_t id,
     if (neighbour_id == id) continue;
     const StoredKeyframe& stored = store.entry(neighbour_id);
     if (stored.depth.depth.empty()) continue;
-    neighbours.push_back({neighbour_id, &stored.keyframe.camera, &stored.depth.depth});
+    const ImageF* cost = stored.depth.cost.empty() ? nullptr : &stored.depth.cost;
+    neighbours.push_back({neighbour_id, &stored.keyframe.camera, &stored.depth.depth, cost});
   }
   DepthRangeEstimate estimate = estimateDepthRange(keyframe, neighbours, options);
   if (estimate.source != DepthRangeSource::kDefault || !options.match_when_unknown) return estimate;

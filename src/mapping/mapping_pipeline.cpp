@@ -1,6 +1,8 @@
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
@@ -20,6 +22,7 @@ PipelineStats statsAfterReset(const PipelineStats& old) {
   PipelineStats fresh;
   fresh.backend = old.backend;
   fresh.dropped_queue_full = old.dropped_queue_full;
+  fresh.dropped_skipped_for_newer = old.dropped_skipped_for_newer;
   fresh.dropped_invalid = old.dropped_invalid;
   fresh.dropped_backend_error = old.dropped_backend_error;
   fresh.dropped_processing_error = old.dropped_processing_error;
@@ -37,6 +40,7 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
   static const std::vector<PipelineStatField> fields = {
       {"keyframes_received", &PipelineStats::keyframes_received},
       {"dropped: queue_full", &PipelineStats::dropped_queue_full},
+      {"dropped: skipped_for_newer", &PipelineStats::dropped_skipped_for_newer},
       {"dropped: invalid_keyframe", &PipelineStats::dropped_invalid},
       {"dropped: backend_error", &PipelineStats::dropped_backend_error},
       {"dropped: processing_error", &PipelineStats::dropped_processing_error},
@@ -45,7 +49,9 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"depth_maps", &PipelineStats::depth_maps},
       {"late_depth_maps", &PipelineStats::late_depth_maps},
       {"refined_depth_maps", &PipelineStats::refined_depth_maps},
+      {"refinements_rejected", &PipelineStats::refinements_rejected},
       {"keyframes_without_sources", &PipelineStats::keyframes_without_sources},
+      {"skipped_kept_as_sources", &PipelineStats::skipped_kept_as_sources},
       {"keyframes_fused", &PipelineStats::keyframes_fused},
       {"keyframes_fused_again", &PipelineStats::keyframes_fused_again},
       {"map_points_added", &PipelineStats::map_points_added},
@@ -199,7 +205,15 @@ size_t MappingPipeline::push(Keyframe keyframe) {
       queue_.erase(queue_.begin());
       ++dropped;
     }
-    queue_.push_back({std::move(keyframe), steadySeconds()});
+    if (dropped > 0) overflowed_ = true;
+    const double now = steadySeconds();
+    if (last_push_at_ > 0) {
+      // Running mean over about the last 10 pushes: the input's keyframe interval.
+      const double interval = now - last_push_at_;
+      mean_push_interval_s_ = mean_push_interval_s_ > 0 ? 0.9 * mean_push_interval_s_ + 0.1 * interval : interval;
+    }
+    last_push_at_ = now;
+    queue_.push_back({std::move(keyframe), now});
   }
   uint64_t total = 0;
   {
@@ -212,10 +226,62 @@ size_t MappingPipeline::push(Keyframe keyframe) {
   if (dropped > 0) {
     report(LogLevel::kWarn, "queue_full",
            "input queue full (" + std::to_string(options_.queue_size) + " keyframes): dropped the oldest, " +
-               std::to_string(total) + " dropped so far; estimation is slower than the keyframe rate: lower "
-               "max_image_size or estimator iterations, raise the keyframe distance, or use the GPU");
+               std::to_string(total) + " dropped so far; " + overloadAdvice());
   }
   return dropped;
+}
+
+std::string MappingPipeline::overloadAdvice() const {
+  double interval_s;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    interval_s = mean_push_interval_s_;
+  }
+  double keyframe_s;
+  std::string backend;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    keyframe_s = stats_.last_total_ms / 1000;
+    backend = stats_.backend;
+  }
+  std::ostringstream out;
+  out.precision(2);
+  out << "estimation is slower than the keyframe rate";
+  if (interval_s > 0 && keyframe_s > 0) {
+    out << " (a keyframe arrives every " << interval_s << " s, one takes " << keyframe_s << " s on " << backend
+        << ": about 1 in " << std::max(1.0, std::ceil(keyframe_s / interval_s)) << " can be mapped)";
+  }
+  out << ": lower max_image_size or estimator iterations, raise the keyframe distance "
+         "(keyframe_min_translation / keyframe_min_rotation_deg), or use the GPU";
+  return out.str();
+}
+
+bool MappingPipeline::takeNextKeyframe(Queued* next, std::vector<Keyframe>* sources) {
+  size_t skipped = 0;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (queue_.empty()) return false;
+    if (options_.skip_to_newest && overflowed_) {
+      skipped = queue_.size() - 1;
+      const size_t kept = std::min<size_t>(skipped, static_cast<size_t>(options_.mapper.sources.max_sources));
+      for (auto it = queue_.end() - 1 - kept; it != queue_.end() - 1; ++it) sources->push_back(std::move(it->keyframe));
+      queue_.erase(queue_.begin(), queue_.end() - 1);
+    }
+    overflowed_ = false;
+    *next = std::move(queue_.front());
+    queue_.erase(queue_.begin());
+  }
+  if (skipped == 0) return true;
+  uint64_t total;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    total = stats_.dropped_skipped_for_newer += skipped;
+  }
+  report(LogLevel::kWarn, "skipped_for_newer",
+         "input outran the estimator: skipped " + std::to_string(skipped) + " queued keyframes to the newest (" +
+             keyframeName(next->keyframe.id) + "; the last " + std::to_string(sources->size()) +
+             " stay as its source views), " + std::to_string(total) + " skipped so far; " + overloadAdvice());
+  return true;
 }
 
 void MappingPipeline::pushPoseUpdate(int64_t id, const Eigen::Isometry3d& camera_to_world) {
@@ -232,6 +298,7 @@ size_t MappingPipeline::requestReset() {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     discarded = queue_.size();
     queue_.clear();
+    overflowed_ = false;
     pose_updates_.clear();
     reset_requested_ = true;
   }
@@ -365,6 +432,16 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
                ": " + reason);
     return true;  // work was attempted
   }
+  if (output.result.refinement_rejected) {
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.refinements_rejected;
+    }
+    report(LogLevel::kInfo, "refinement",
+           "refinement of " + keyframeName(output.result.id) + " rejected, it keeps its depth map (" +
+               output.result.refinement_evidence + ")");
+    return true;  // nothing new to publish
+  }
   output.result.times.queue_wait_ms = queue_wait_ms;
   // Keyframe ids are the estimator's image keys: an evicted keyframe's image
   // and depth map leave the GPU too.
@@ -406,17 +483,22 @@ std::vector<PipelineOutput> MappingPipeline::step() {
   applyPending();
   std::vector<PipelineOutput> outputs;
   Queued next;
-  bool have_keyframe = false;
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    if (!queue_.empty()) {
-      next = std::move(queue_.front());
-      queue_.erase(queue_.begin());
-      have_keyframe = true;
-    }
-  }
+  std::vector<Keyframe> skipped_sources;
+  const bool have_keyframe = takeNextKeyframe(&next, &skipped_sources);
   bool worked = false;
   std::lock_guard<std::mutex> lock(mapper_mutex_);
+  for (Keyframe& source : skipped_sources) {
+    const int64_t id = source.id;
+    try {
+      const std::vector<int64_t> evicted = mapper_->addSourceView(std::move(source));
+      if (estimator_)
+        for (int64_t gone : evicted) estimator_->forget(gone);
+      std::lock_guard<std::mutex> stats(stats_mutex_);
+      ++stats_.skipped_kept_as_sources;
+    } catch (const InputError& e) {
+      report(LogLevel::kError, "keyframe", "skipped " + keyframeName(id) + " not kept as a source: " + e.what());
+    }
+  }
   if (have_keyframe) {
     const double wait_ms = 1000 * (steadySeconds() - next.pushed_at);
     const int64_t id = next.keyframe.id;

@@ -9,6 +9,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/core/stopwatch.h"
 #include "amhmvs_mapping/mapping/map_export.h"
+#include "amhmvs_mapping/mapping/refinement_evidence.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
 
 namespace amhmvs {
@@ -55,6 +56,9 @@ std::string RefinementOptions::validate() const {
   if (max_refinements < 0) why << "max_refinements must be >= 0 (got " << max_refinements << ")\n";
   if (!(std::isfinite(min_score_gain) && min_score_gain > 1))
     why << "min_score_gain must be finite and > 1 (got " << min_score_gain << ")\n";
+  if (!(confident_cost >= 0)) why << "confident_cost must be >= 0 (got " << confident_cost << ")\n";
+  if (!(max_confident_loss >= 0 && max_confident_loss < 1))
+    why << "max_confident_loss must be in [0, 1) (got " << max_confident_loss << ")\n";
   return why.str();
 }
 
@@ -95,11 +99,7 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
   result.times.selection_ms = millisecondsSince(selection_start);
 
   if (result.selection.source_ids.empty()) {
-    // Kept as a source: done, with a depth map that has no valid pixel.
-    const PinholeCamera& camera = store_.keyframe(id).camera;
-    DepthMap none;
-    none.depth = ImageF(camera.width, camera.height, 1, std::numeric_limits<float>::quiet_NaN());
-    noteEvicted(store_.attachDepth(id, std::move(none)), &result);
+    markSourceOnly(id, &result);
     if (store_.contains(id)) waiting_for_sources_.push_back(id);
     result.waiting_for_fusion = waiting_.size();
     result.times.total_ms = millisecondsSince(start);
@@ -114,6 +114,23 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
   }
   result.times.total_ms = millisecondsSince(start);
   return result;
+}
+
+void OnlineMapper::markSourceOnly(int64_t id, KeyframeResult* result) {
+  // Done, with a depth map that has no valid pixel (and no normals: never a
+  // consistency view of fusion).
+  const PinholeCamera& camera = store_.keyframe(id).camera;
+  DepthMap none;
+  none.depth = ImageF(camera.width, camera.height, 1, std::numeric_limits<float>::quiet_NaN());
+  noteEvicted(store_.attachDepth(id, std::move(none)), result);
+}
+
+std::vector<int64_t> OnlineMapper::addSourceView(Keyframe keyframe) {
+  KeyframeResult result;
+  const int64_t id = keyframe.id;
+  noteEvicted(store_.add(std::move(keyframe)), &result);
+  markSourceOnly(id, &result);
+  return result.evicted;
 }
 
 bool OnlineMapper::estimateLate(KeyframeResult* result) {
@@ -185,13 +202,24 @@ void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
   result->depth = estimate_(problem);
   result->times.estimate_ms = millisecondsSince(start);
   result->has_depth = true;
+  if (result->refined && options_.refinement.keep_only_better) {
+    const RefinementVerdict verdict =
+        judgeRefinement(store_.entry(id).depth, result->depth, options_.refinement.confident_cost,
+                        options_.refinement.max_confident_loss);
+    result->refinement_evidence = verdict.reason;
+    result->refinement_rejected = !verdict.keep_new;
+  }
+  EstimateRecord& record = estimates_[id];
+  record.sources = sources;  // also when rejected: the same selection is not tried again
+  record.score = selectionScore(result->selection);
+  if (result->refinement_rejected) {
+    result->waiting_for_fusion = waiting_.size();
+    return;
+  }
   start = Clock::now();
   noteEvicted(store_.attachDepth(id, result->depth), result);
   result->times.store_ms += millisecondsSince(start);
   if (!store_.contains(id)) return;
-  EstimateRecord& record = estimates_[id];
-  record.sources = sources;
-  record.score = selectionScore(result->selection);
   // A keyframe with a depth map waits for fusion (a refined one again); this
   // depth map may also complete earlier waiting keyframes.
   if (std::find(waiting_.begin(), waiting_.end(), id) == waiting_.end()) waiting_.push_back(id);

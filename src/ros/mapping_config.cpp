@@ -76,6 +76,9 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "depth_range/far_factor", &o->depth_range.far_factor);
   read(nh, "depth_range/min_sparse_points", &o->depth_range.min_sparse_points);
   read(nh, "depth_range/min_depth_samples", &o->depth_range.min_depth_samples);
+  read(nh, "depth_range/max_neighbour_cost", &o->depth_range.max_neighbour_cost);
+  read(nh, "depth_range/neighbour_low_percentile", &o->depth_range.neighbour_low_percentile);
+  read(nh, "depth_range/neighbour_high_percentile", &o->depth_range.neighbour_high_percentile);
   read(nh, "depth_range/match_when_unknown", &o->depth_range.match_when_unknown);
   read(nh, "depth_range/default_min", &o->depth_range.default_min);
   read(nh, "depth_range/default_max", &o->depth_range.default_max);
@@ -94,6 +97,9 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
 
   read(nh, "refinement/max_refinements", &o->refinement.max_refinements);
   read(nh, "refinement/min_score_gain", &o->refinement.min_score_gain);
+  read(nh, "refinement/keep_only_better", &o->refinement.keep_only_better);
+  read(nh, "refinement/confident_cost", &o->refinement.confident_cost);
+  read(nh, "refinement/max_confident_loss", &o->refinement.max_confident_loss);
 }
 
 // Each group of the mapping core checked on its own: a bad group is
@@ -128,8 +134,10 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
   std::ostringstream err;
   read(pnh, "input_mode", &c.input_mode);
   read(pnh, "fixed_frame", &c.fixed_frame);
+  read(pnh, "view_frame", &c.view_frame);
   read(pnh, "tf_timeout", &c.tf_timeout);
   read(pnh, "queue_size", &c.queue_size);
+  read(pnh, "skip_to_newest", &c.skip_to_newest);
   read(pnh, "sync_queue_size", &c.sync_queue_size);
   read(pnh, "sync_max_interval", &c.sync_max_interval);
   read(pnh, "keyframe_min_translation", &c.keyframe_min_translation);

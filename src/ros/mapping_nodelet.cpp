@@ -35,6 +35,7 @@ void MappingNodelet::onInit() {
   options.estimator = config_.estimator;
   options.backend = amhmvs::parseBackend(config_.backend);
   options.queue_size = static_cast<size_t>(config_.queue_size);
+  options.skip_to_newest = config_.skip_to_newest;
   const std::string name = getName();
   pipeline_.reset(new amhmvs::MappingPipeline(options, [name](amhmvs::MappingPipeline::LogLevel level,
                                                               const std::string& line) {
@@ -150,6 +151,7 @@ bool MappingNodelet::resetService(std_srvs::Trigger::Request&, std_srvs::Trigger
   const size_t cleared = pipeline_->requestReset();
   inputs_->restart();
   headers_.clear();
+  outputs_->replaceViewFrame();
   res.success = true;
   res.message = "reset: " + std::to_string(cleared) + " queued keyframes discarded, stored keyframes cleared";
   NODELET_INFO("%s", res.message.c_str());

@@ -3,6 +3,7 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include "amhmvs_mapping/mapping/view_anchor.h"
 #include "amhmvs_mapping/ros/keyframe_markers.h"
 #include "amhmvs_mapping/ros/ros_conversions.h"
 
@@ -50,12 +51,33 @@ MappingOutputs::MappingOutputs(ros::NodeHandle& nh, const MappingConfig& config,
       "map", 1, [on_map_subscriber](const ros::SingleSubscriberPublisher&) { on_map_subscriber(); },
       ros::SubscriberStatusCallback(), ros::VoidConstPtr(), true);
   markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("keyframe_markers", 5);
+  if (!config_.view_frame.empty()) view_broadcaster_.reset(new tf2_ros::StaticTransformBroadcaster());
+}
+
+void MappingOutputs::publishViewFrame(const amhmvs::KeyframeResult& result, const ros::Time& stamp) {
+  Eigen::Vector3d anchor;
+  if (!view_broadcaster_ || view_published_ || !result.has_depth ||
+      !amhmvs::viewAnchor(result.camera, result.depth.depth, &anchor))
+    return;
+  geometry_msgs::TransformStamped view;
+  view.header.stamp = stamp;
+  view.header.frame_id = config_.fixed_frame;
+  view.child_frame_id = config_.view_frame;
+  view.transform.translation.x = anchor.x();
+  view.transform.translation.y = anchor.y();
+  view.transform.translation.z = anchor.z();
+  view.transform.rotation.w = 1;  // the fixed frame's axes: rviz's orbit view keeps its own up
+  view_broadcaster_->sendTransform(view);
+  view_published_ = true;
+  ROS_INFO("view frame %s at (%.2f, %.2f, %.2f) in %s, where keyframe %ld looks", config_.view_frame.c_str(),
+           anchor.x(), anchor.y(), anchor.z(), config_.fixed_frame.c_str(), static_cast<long>(result.id));
 }
 
 void MappingOutputs::publish(const amhmvs::KeyframeResult& result, const KeyframeHeaders& headers,
                              const amhmvs::MappingPipeline& pipeline) {
   std_msgs::Header header;
   if (!headers.get(result.id, &header)) return;  // forgotten by a reset meanwhile
+  publishViewFrame(result, header.stamp);
   if (markers_pub_.getNumSubscribers() > 0) {
     std::vector<MarkerCamera> cameras;
     pipeline.withMapper([&](const amhmvs::OnlineMapper& mapper) {

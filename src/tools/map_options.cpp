@@ -28,7 +28,8 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
   PosedSequenceOptions& sequence = options.sequence;
   for (size_t i = 0; i < arguments.size(); ++i) {
     std::string name, value;
-    nextOption(arguments, &i, {"quiet", "write_depth", "write_previews", "write_clouds"}, &name, &value);
+    nextOption(arguments, &i, {"quiet", "write_depth", "write_previews", "write_clouds", "skip_to_newest"}, &name,
+               &value);
     if (name == "quiet") options.quiet = parseSwitch(name, value);
     else if (name == "write_depth") options.write_depth = parseSwitch(name, value);
     else if (name == "write_previews") options.write_previews = parseSwitch(name, value);
@@ -42,6 +43,7 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     else if (name == "preferred_angle_deg") pipeline.mapper.sources.preferred_angle_deg = parseValue<double>(name, value);
     else if (name == "voxel_size") pipeline.mapper.map.leaf_size = parseValue<double>(name, value);
     else if (name == "queue_size") options.queue_size = parseValue<size_t>(name, value);
+    else if (name == "skip_to_newest") pipeline.skip_to_newest = parseSwitch(name, value);
     else if (name == "start") frames.start = parseValue<size_t>(name, value);
     else if (name == "count") frames.count = parseValue<size_t>(name, value);
     else if (name == "stride") frames.stride = parseValue<size_t>(name, value);
@@ -131,6 +133,7 @@ std::string mapToolUsage() {
          "                       layout (MVSNet, COLMAP), else the neighbours' depth maps)\n"
          "  --voxel_size M       map voxel edge (default 0.02)\n"
          "  --queue_size N       keyframes waiting (default: all offline, 4 with --realtime)\n"
+         "  --skip_to_newest[=0|1]  after a queue overflow take the newest keyframe (default 1)\n"
          "Outputs:\n"
          "  --write_depth[=0|1] (default 1)  --write_clouds[=0|1] (default 1)\n"
          "  --write_previews[=0|1] (default 0)  --quiet (only warnings and the summary line)\n\n"

@@ -390,9 +390,11 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
 
   char text[512];
   std::snprintf(text, sizeof(text),
-                "%zu keyframes of %zu frames: %zu new, %zu late, %zu refined depth maps, %llu dropped; %.1f s",
+                "%zu keyframes of %zu frames: %zu new, %zu late, %zu refined depth maps (%llu refinements "
+                "rejected), %llu dropped; %.1f s",
                 totals.keyframes_picked, totals.frames_looked_at, depth_maps, late,
                 kinds_.count("refined") ? kinds_.at("refined") : 0,
+                static_cast<unsigned long long>(stats.refinements_rejected),
                 static_cast<unsigned long long>(stats.droppedTotal()), totals.wall_s);
   *line = text;
   if (depth_maps + late > 0) {

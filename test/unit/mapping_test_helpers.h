@@ -2,6 +2,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -49,6 +50,19 @@ inline DepthMap wallDepth(const DepthProblem& problem) {
   for (int y = 0; y < camera.height; ++y)
     for (int x = 0; x < camera.width; ++x) map.normal.at(x, y, 2) = -1.0f;
   map.cost = ImageF(camera.width, camera.height, 1, 0.1f);
+  return map;
+}
+
+// The wall's exact depth for first estimates; a refinement (two sources) of
+// the keyframe at x = 0 is fed bad sources: a wrong depth (4 m) with the high
+// cost the estimator gives such matches; other refinements find the wall with
+// a lower cost than before.
+inline DepthMap wallDepthWithABadRefinementOfKeyframe0(const DepthProblem& problem) {
+  DepthMap map = wallDepth(problem);
+  if (problem.source_cameras.size() < 2) return map;
+  const bool keyframe_0 = std::abs(cameraToWorld(problem.reference_camera).translation().x()) < 1e-9;
+  std::fill(map.depth.data.begin(), map.depth.data.end(), keyframe_0 ? 4.0f : map.depth.data[0]);
+  std::fill(map.cost.data.begin(), map.cost.data.end(), keyframe_0 ? 0.9f : 0.05f);
   return map;
 }
 

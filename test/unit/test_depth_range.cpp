@@ -109,6 +109,82 @@ TEST(DepthRange, FromNeighbourDepthMapsWhenTooFewPoints) {
       << estimate.reason;
 }
 
+// A neighbour at the keyframe's pose (200x100 px) that sees depths 2..4 m
+// (rising along x) with a low matching cost, and planted outliers at 0.1 m:
+// `share` of the pixels (in 2x2 blocks, so that the sampled pixels have the
+// same share) with matching cost `outlier_cost`.
+struct PlantedNeighbour {
+  PinholeCamera camera = test::centredCamera(200, 100, 150);
+  ImageF depth{200, 100, 1, 0.0f}, cost{200, 100, 1, 0.2f};
+  PlantedNeighbour(double share, float outlier_cost) {
+    const int every = static_cast<int>(std::lround(1.0 / share));
+    for (int y = 0; y < depth.height; ++y) {
+      for (int x = 0; x < depth.width; ++x) {
+        depth.at(x, y) = static_cast<float>(2.0 + 2.0 * x / (depth.width - 1));
+        if (share > 0 && (x / 2 + (y / 2) * (depth.width / 2)) % every == 0) {
+          depth.at(x, y) = 0.1f;
+          cost.at(x, y) = outlier_cost;
+        }
+      }
+    }
+  }
+  DepthRangeEstimate range(const DepthRangeOptions& options = DepthRangeOptions()) const {
+    Keyframe keyframe;
+    keyframe.id = 1;
+    keyframe.camera = camera;
+    return estimateDepthRange(keyframe, {{2, &camera, &depth, &cost}}, options);
+  }
+};
+
+TEST(DepthRange, NeighbourOutliersAtATenthOfAMetreDoNotPullTheNearLimit) {
+  const DepthRangeEstimate clean = PlantedNeighbour(0, 0).range();
+  ASSERT_EQ(clean.source, DepthRangeSource::kNeighbourDepthMaps) << clean.reason;
+  // True depths 2..4 m: the range holds them, with the margin (0.8 / 1.2).
+  EXPECT_GT(clean.min, 0.75 * 2.0);
+  EXPECT_LT(clean.min, 2.0);
+  EXPECT_GT(clean.max, 4.0);
+  EXPECT_LT(clean.max, 1.25 * 4.0);
+
+  // 2 % of the pixels at 0.1 m, even confident ones (low cost): the robust
+  // percentiles keep the range within 5 % of the outlier-free one.
+  const DepthRangeEstimate two_percent = PlantedNeighbour(0.02, 0.2f).range();
+  EXPECT_NEAR(two_percent.min, clean.min, 0.05 * clean.min) << two_percent.reason;
+  EXPECT_NEAR(two_percent.max, clean.max, 0.05 * clean.max) << two_percent.reason;
+  // So do 3 %, which a 2 % percentile would not survive.
+  const PlantedNeighbour confident_outliers(0.03, 0.2f);
+  const DepthRangeEstimate robust = confident_outliers.range();
+  EXPECT_NEAR(robust.min, clean.min, 0.05 * clean.min) << robust.reason;
+  EXPECT_NEAR(robust.max, clean.max, 0.05 * clean.max) << robust.reason;
+  // The planted outliers do matter: the sparse points' 2 % percentile would
+  // put the near limit below 0.5 m.
+  DepthRangeOptions plain;
+  plain.neighbour_low_percentile = 2.0;
+  plain.max_neighbour_cost = 2.0;
+  EXPECT_LT(confident_outliers.range(plain).min, 0.5);
+
+  // 20 % at 0.1 m with the high cost that PatchMatch gives wrong pixels: only
+  // confident pixels are sampled, so they are not seen at all.
+  const PlantedNeighbour costly_outliers(0.2, 1.2f);
+  const DepthRangeEstimate confident = costly_outliers.range();
+  EXPECT_NEAR(confident.min, clean.min, 0.05 * clean.min) << confident.reason;
+  EXPECT_NEAR(confident.max, clean.max, 0.05 * clean.max) << confident.reason;
+  EXPECT_NE(confident.reason.find("confident depth samples"), std::string::npos) << confident.reason;
+  plain.max_neighbour_cost = 2.0;
+  plain.neighbour_low_percentile = 5.0;
+  EXPECT_LT(costly_outliers.range(plain).min, 0.5);  // the cost is what removes them
+}
+
+TEST(DepthRange, TooFewConfidentNeighbourPixelsFallBackToAllValidOnes) {
+  // Every pixel unconfident: the range still comes from the depth map (say so).
+  const PlantedNeighbour neighbour(0, 0);
+  DepthRangeOptions options;
+  options.max_neighbour_cost = 0.1;  // below every pixel's 0.2
+  const DepthRangeEstimate estimate = neighbour.range(options);
+  EXPECT_EQ(estimate.source, DepthRangeSource::kNeighbourDepthMaps);
+  EXPECT_NEAR(estimate.min, PlantedNeighbour(0, 0).range().min, 1e-9);
+  EXPECT_NE(estimate.reason.find("too few confident: 0"), std::string::npos) << estimate.reason;
+}
+
 TEST(DepthRange, DefaultWithReasonWhenNothingElseWorks) {
   const Keyframe keyframe = makeKeyframe(1, Eigen::Vector3d::Zero());
   // A neighbour looking at nothing the keyframe sees (all depths invalid).
@@ -150,6 +226,8 @@ TEST(DepthRange, BadInputIsAClearError) {
   const ImageF depth(kWidth, kHeight, 1, 2.0f);
   EXPECT_INPUT_ERROR(estimateDepthRange(keyframe, {{7, &bad_neighbour.camera, &depth}}),
                      "neighbour keyframe 7", "non-finite");
+  EXPECT_INPUT_ERROR(estimateDepthRange(keyframe, {{7, &neighbour.camera, &depth, &wrong_size}}),
+                     "neighbour keyframe 7", "cost image does not match");
   Keyframe bad = keyframe;
   bad.camera.R *= 3;
   EXPECT_INPUT_ERROR(estimateDepthRange(bad, {}), "keyframe 1", "not rigid");
@@ -157,6 +235,9 @@ TEST(DepthRange, BadInputIsAClearError) {
   options.default_min = 5;
   options.default_max = 1;
   EXPECT_INPUT_ERROR(estimateDepthRange(keyframe, {}, options), "default range", "min < max");
+  options = DepthRangeOptions();
+  options.neighbour_low_percentile = 96;
+  EXPECT_INPUT_ERROR(estimateDepthRange(keyframe, {}, options), "neighbour percentiles", "low < high");
 }
 
 TEST(DepthRange, FromStoreUsesFinishedNeighbours) {

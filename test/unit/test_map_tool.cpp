@@ -75,6 +75,8 @@ TEST(MapTool, ParsesOptionsAndRefusesBadOnes) {
   EXPECT_EQ(resolvedQueueSize(realtime, 17), PipelineOptions().queue_size);
   realtime.queue_size = 2;
   EXPECT_EQ(resolvedQueueSize(realtime, 17), 2u);
+  EXPECT_TRUE(options.pipeline.skip_to_newest);
+  EXPECT_FALSE(parseMapToolArguments({"--skip_to_newest=0"}).pipeline.skip_to_newest);
 
   EXPECT_INPUT_ERROR(parseMapToolArguments({"--bogus", "1"}), "unknown option", "--bogus");
   EXPECT_INPUT_ERROR(parseMapToolArguments({"--count", "x"}), "--count", "'x'");

@@ -3,6 +3,7 @@
 // with an injected estimator that returns the exact depth of a wall.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <set>
 #include <string>
 #include <vector>
@@ -51,7 +52,9 @@ std::vector<std::string> describe(const std::vector<PipelineOutput>& outputs) {
 }
 
 TEST(MappingPipeline, FullQueueDropsTheOldestAndSaysWhatToChange) {
-  WallPipeline wall(wallPipeline(2));
+  PipelineOptions options = wallPipeline(2);
+  options.skip_to_newest = false;  // drop-oldest alone (the next test: with the skip)
+  WallPipeline wall(options);
   EXPECT_EQ(wall.pipeline.push(keyframeAt(0, 0.0)), 0u);
   EXPECT_EQ(wall.pipeline.push(keyframeAt(1, 0.5)), 0u);
   EXPECT_EQ(wall.pipeline.push(keyframeAt(2, 1.0)), 1u);  // keyframe 0 goes
@@ -65,6 +68,50 @@ TEST(MappingPipeline, FullQueueDropsTheOldestAndSaysWhatToChange) {
   // The newest are processed, in order.
   EXPECT_EQ(describe(wall.pipeline.step()), std::vector<std::string>{"new 1"});
   EXPECT_EQ(describe(wall.pipeline.step()), (std::vector<std::string>{"new 2", "late 1"}));
+}
+
+TEST(MappingPipeline, AfterAnOverflowTheNewestKeyframeIsTakenAndTheSkippedOnesCounted) {
+  WallPipeline wall(wallPipeline(3));
+  // A burst that fits the queue is processed in order, every keyframe.
+  for (int i = 0; i < 3; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
+  EXPECT_EQ(describe(wall.pipeline.step()), std::vector<std::string>{"new 0"});
+  EXPECT_EQ(describe(wall.pipeline.step()), (std::vector<std::string>{"new 1", "late 0"}));
+  EXPECT_EQ(wall.pipeline.stats().droppedTotal(), 0u);
+  // Input faster than the estimator: 5 keyframes while 2 is queued
+  // overflow the queue (2, 3, 4 dropped for newer ones), then the newest (7)
+  // is taken and the queued 5 and 6 are skipped; nothing is silent.
+  for (int i = 3; i < 8; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
+  PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.dropped_queue_full, 3u);
+  EXPECT_EQ(stats.queued, 3u);
+  const std::vector<PipelineOutput> outputs = wall.pipeline.step();
+  const std::vector<std::string> next = describe(outputs);
+  ASSERT_FALSE(next.empty());
+  EXPECT_EQ(next[0], "new 7");
+  // The skipped 5 and 6 have no depth map of their own but stay as sources.
+  const std::vector<int64_t>& sources = outputs[0].result.selection.source_ids;
+  EXPECT_NE(std::find(sources.begin(), sources.end(), 6), sources.end());
+  wall.pipeline.withMapper([](const OnlineMapper& mapper) {
+    EXPECT_TRUE(mapper.store().contains(5) && mapper.store().contains(6));
+    EXPECT_FALSE(mapper.store().contains(4));
+  });
+  stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.dropped_skipped_for_newer, 2u);
+  EXPECT_EQ(stats.skipped_kept_as_sources, 2u);
+  EXPECT_EQ(stats.queued, 0u);
+  EXPECT_EQ(stats.droppedTotal(), 5u);
+  EXPECT_EQ(stats.keyframes_received, 8u);
+  EXPECT_TRUE(wall.logged("skipped 2 queued keyframes to the newest (keyframe 7; the last 2 stay as its source "
+                          "views), 2 skipped so far"));
+  EXPECT_TRUE(wall.logged("raise the keyframe distance"));
+  // The input measured: how many keyframes can be mapped.
+  EXPECT_TRUE(wall.logged("a keyframe arrives every ")) << wall.log.back();
+  // Back to a rate the estimator keeps: in order again.
+  wall.pipeline.push(keyframeAt(8, 4.0));
+  wall.pipeline.push(keyframeAt(9, 4.5));
+  EXPECT_EQ(describe(wall.pipeline.step())[0], "new 8");
+  EXPECT_EQ(describe(wall.pipeline.step())[0], "new 9");
+  EXPECT_EQ(wall.pipeline.stats().droppedTotal(), 5u);
 }
 
 TEST(MappingPipeline, SchedulesNewKeyframesFirstThenLateDepthMapsThenRefinements) {
@@ -121,6 +168,19 @@ TEST(MappingPipeline, RefinementWaitsWhileKeyframesAreQueued) {
   }
   ASSERT_LT(first_refined, order.size()) << "no refinement happened";
   EXPECT_LT(last_new, first_refined);
+}
+
+TEST(MappingPipeline, RejectedRefinementIsCountedLoggedAndNotPublished) {
+  WallPipeline wall(wallPipeline(), test::wallDepthWithABadRefinementOfKeyframe0);
+  for (int i = 0; i < 3; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
+  std::vector<std::string> order;
+  wall.pipeline.runUntilIdle([&](const PipelineOutput& output) { order.push_back(describe({output})[0]); });
+  EXPECT_EQ(std::count(order.begin(), order.end(), "refined 0"), 0) << "a rejected refinement was published";
+  EXPECT_EQ(std::count(order.begin(), order.end(), "refined 1"), 1);
+  const PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.refinements_rejected, 1u);
+  EXPECT_EQ(stats.refined_depth_maps, 1u);
+  EXPECT_TRUE(wall.logged("refinement of keyframe 0 rejected, it keeps its depth map (confident pixels 768 -> 0"));
 }
 
 TEST(MappingPipeline, FailingGpuFallsBackToTheCpuAndIsCounted) {

@@ -130,6 +130,21 @@ TEST(OnlineMapper, KeyframeWithoutSourceGetsItsDepthMapOnceALaterKeyframeQualifi
   for (const Eigen::Vector3f& p : mapper.map().exportCloud().points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
 }
 
+TEST(OnlineMapper, SourceViewServesLaterKeyframesAndNeverGetsADepthMap) {
+  OnlineMapper mapper(wallOptions(), wallDepth);
+  EXPECT_TRUE(mapper.addSourceView(keyframeAt(0, 0.0)).empty());
+  const KeyframeResult result = mapper.process(keyframeAt(1, 0.5));
+  EXPECT_TRUE(result.has_depth);
+  EXPECT_EQ(result.selection.source_ids, std::vector<int64_t>{0});
+  EXPECT_TRUE(mapper.waitingForSources().empty());
+  KeyframeResult late;
+  EXPECT_FALSE(mapper.estimateLate(&late));
+  EXPECT_FALSE(mapper.refine(&late));
+  const ImageF& depth = mapper.store().entry(0).depth.depth;
+  EXPECT_TRUE(std::all_of(depth.data.begin(), depth.data.end(), [](float d) { return std::isnan(d); }));
+  EXPECT_THROW(mapper.addSourceView(keyframeAt(0, 1.0)), InputError);  // duplicate id
+}
+
 TEST(OnlineMapper, KeyframeThatNeverGetsASourceIsCountedWhenEvicted) {
   OnlineMapperOptions options = wallOptions();
   options.store.max_keyframes = 2;
@@ -221,6 +236,47 @@ TEST(OnlineMapper, RefineReestimatesAKeyframeOnceWhenLaterKeyframesGiveBetterSou
   EXPECT_EQ(mapper.map().storedPointCount(), points);
 }
 
+TEST(OnlineMapper, RefinementWorseByTheEstimatorsEvidenceIsRejectedAndABetterOneKept) {
+  OnlineMapper mapper(wallOptions(), test::wallDepthWithABadRefinementOfKeyframe0);
+  KeyframeResult result;
+  mapper.process(keyframeAt(0, 0.0));
+  mapper.process(keyframeAt(1, 0.5));
+  ASSERT_TRUE(mapper.estimateLate(&result));
+  mapper.process(keyframeAt(2, 1.0));
+  const size_t map_points = mapper.map().storedPointCount();
+  // Keyframe 0 with {1, 2}: the bad sources' map (4 m, cost 0.9) is dropped.
+  ASSERT_TRUE(mapper.refine(&result));
+  EXPECT_EQ(result.id, 0);
+  EXPECT_TRUE(result.refinement_rejected);
+  EXPECT_NE(result.refinement_evidence.find("confident pixels 768 -> 0, median cost 0.1 -> 0.9"), std::string::npos)
+      << result.refinement_evidence;
+  EXPECT_TRUE(result.fused.empty());
+  EXPECT_FLOAT_EQ(mapper.store().entry(0).depth.depth.at(3, 3), static_cast<float>(kWallZ));
+  EXPECT_FLOAT_EQ(mapper.store().entry(0).depth.cost.at(3, 3), 0.1f);
+  EXPECT_EQ(mapper.map().storedPointCount(), map_points);
+  for (const Eigen::Vector3f& p : mapper.map().exportCloud().points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+  // Keyframe 1 with {0, 2}: lower cost everywhere, kept and fused again.
+  ASSERT_TRUE(mapper.refine(&result));
+  EXPECT_EQ(result.id, 1);
+  EXPECT_FALSE(result.refinement_rejected) << result.refinement_evidence;
+  EXPECT_FLOAT_EQ(mapper.store().entry(1).depth.cost.at(3, 3), 0.05f);
+  ASSERT_EQ(fusedIds(result), std::vector<int64_t>{1});
+  // The rejected selection is not tried again.
+  EXPECT_FALSE(mapper.refine(&result));
+
+  // Switched off, the bad map replaces the good one (the old behaviour).
+  OnlineMapperOptions options = wallOptions();
+  options.refinement.keep_only_better = false;
+  OnlineMapper always(options, test::wallDepthWithABadRefinementOfKeyframe0);
+  always.process(keyframeAt(0, 0.0));
+  always.process(keyframeAt(1, 0.5));
+  ASSERT_TRUE(always.estimateLate(&result));
+  always.process(keyframeAt(2, 1.0));
+  ASSERT_TRUE(always.refine(&result));
+  EXPECT_FALSE(result.refinement_rejected);
+  EXPECT_FLOAT_EQ(always.store().entry(0).depth.depth.at(3, 3), 4.0f);
+}
+
 TEST(OnlineMapper, RefinementCanBeSwitchedOffAndItsOptionsAreChecked) {
   OnlineMapperOptions options = wallOptions();
   options.refinement.max_refinements = 0;
@@ -237,6 +293,13 @@ TEST(OnlineMapper, RefinementCanBeSwitchedOffAndItsOptionsAreChecked) {
   options.refinement.min_score_gain = 1.5;
   options.refinement.max_refinements = -1;
   EXPECT_THROW(OnlineMapper(options, wallDepth), InputError);
+  options.refinement.max_refinements = 1;
+  options.refinement.confident_cost = -0.1;
+  options.refinement.max_confident_loss = 1;
+  EXPECT_NE(options.validate().find("refinement: confident_cost must be >= 0"), std::string::npos)
+      << options.validate();
+  EXPECT_NE(options.validate().find("refinement: max_confident_loss must be in [0, 1)"), std::string::npos)
+      << options.validate();
 }
 
 // The estimator's depth with a blob: cameras with x in [blob_min_x,

@@ -4,9 +4,13 @@
 //   2. its sparse SLAM points: z-depths of the points in front of the camera
 //      and inside the image, percentiles low/high_percentile (2/98) widened
 //      by near_factor/far_factor (0.8/1.2), with >= min_sparse_points points;
-//   3. finished depth maps of overlapping keyframes: their valid depths
-//      (every depth_map_stride-th pixel) reprojected into this keyframe, the
-//      same percentiles and factors, with >= min_depth_samples samples;
+//   3. finished depth maps of overlapping keyframes: their confident depths
+//      (every depth_map_stride-th pixel with a matching cost <=
+//      max_neighbour_cost; all valid ones when fewer than min_depth_samples
+//      are confident) reprojected into this keyframe, the robust percentiles
+//      neighbour_low/high_percentile (5/95: a depth map's wrong pixels come in
+//      clusters, e.g. a few % at 0.1 m, which must not set the near limit)
+//      and the same factors, with >= min_depth_samples samples;
 //   4. (store overload, match_when_unknown) before any depth map or point
 //      exists, e.g. the first pair of a run: patches of the keyframe matched
 //      along epipolar lines in its sources (epipolar_depth_search.h), the
@@ -37,6 +41,11 @@ struct DepthRangeOptions {
   int min_sparse_points = 10;
   int min_depth_samples = 100;
   int depth_map_stride = 2;  // pixel step when reprojecting neighbour depth maps
+  // Rule 3: only neighbour pixels whose aggregated matching cost (0..2) is at
+  // most this count (a depth map without a cost image counts as confident).
+  double max_neighbour_cost = 0.5;
+  double neighbour_low_percentile = 5.0;    // in [0, 100)
+  double neighbour_high_percentile = 95.0;  // in (neighbour_low_percentile, 100]
   bool match_when_unknown = true;  // rule 4
   int min_matched_points = 20;
   EpipolarSearchOptions matching;
@@ -58,11 +67,14 @@ struct DepthRangeEstimate {
 };
 
 // A finished depth map of an overlapping keyframe (z-depth, NaN or <= 0 where
-// invalid); the pointers must stay valid during the call.
+// invalid) and optionally its cost image (the estimator's aggregated cost,
+// the depth map's size; null: every pixel counts as confident); the pointers
+// must stay valid during the call.
 struct NeighbourDepth {
   int64_t id = 0;
   const PinholeCamera* camera = nullptr;
   const ImageF* depth = nullptr;
+  const ImageF* cost = nullptr;
 };
 
 // Throws InputError for invalid options, an invalid keyframe camera, or a

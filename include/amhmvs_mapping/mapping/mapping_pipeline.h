@@ -11,7 +11,14 @@
 // It owns:
 //   - a bounded input queue of keyframes: when full, the OLDEST waiting
 //     keyframe is dropped (counted in stats, reported once per
-//     options.report_period_s through the log);
+//     options.report_period_s through the log, with what to change); once it
+//     has overflowed the input is faster than the estimator, and the next
+//     keyframe taken is the NEWEST: the older queued ones are dropped too
+//     (skip_to_newest, counted), so that the map follows the camera instead
+//     of working through a stale backlog; the newest max_sources of them
+//     stay in the store as source views (no depth map of their own), so that
+//     the newest keyframe still has near partners. A burst that fits the
+//     queue (a short bag) is processed in order, every keyframe;
 //   - the depth estimator with its CPU fallback (FallbackEstimator: a GPU
 //     failure reruns the keyframe on the CPU; after switch_to_cpu_after
 //     failures in a row every keyframe does);
@@ -21,7 +28,8 @@
 // Scheduling of one step() (the nodelet's worker calls it in a loop, the
 // offline tool until idle()):
 //   1. pending work from other threads: options, reset, pose updates;
-//   2. the oldest queued keyframe, if any (OnlineMapper::process);
+//   2. the oldest queued keyframe, if any (OnlineMapper::process); the
+//      newest after an overflow (skip_to_newest);
 //   3. one late depth map (a keyframe that had no source when it arrived and
 //      has one now);
 //   4. only when the queue is empty and 3 did nothing: one refinement.
@@ -56,6 +64,7 @@ struct PipelineOptions {
   EstimatorResources resources;          // GPU: device-memory budget of resident keyframe images
   FuserResources fusion_resources;       // GPU: device-memory budget of resident depth maps (fusion)
   size_t queue_size = 4;                 // keyframes waiting for the estimator; >= 1
+  bool skip_to_newest = true;            // after an overflow take the newest keyframe, drop the older queued ones
   int switch_to_cpu_after = 3;           // GPU failures in a row before every keyframe runs on the CPU
   bool late_depth_maps = true;           // step 3 of the scheduling
   double report_period_s = 5.0;          // seconds between log lines of one kind of drop
@@ -75,6 +84,7 @@ struct PipelineStats {
   // Input.
   uint64_t keyframes_received = 0;     // push() calls that were accepted into the queue
   uint64_t dropped_queue_full = 0;     // oldest queued keyframes dropped for newer ones
+  uint64_t dropped_skipped_for_newer = 0;  // queued keyframes skipped to the newest after an overflow (no depth map)
   uint64_t dropped_invalid = 0;        // keyframes the mapper refused (InputError)
   uint64_t dropped_backend_error = 0;  // keyframes whose estimate failed on every backend
   uint64_t dropped_processing_error = 0;  // any other exception while processing
@@ -83,8 +93,10 @@ struct PipelineStats {
   // Work done.
   uint64_t depth_maps = 0;             // first depth maps (late ones included)
   uint64_t late_depth_maps = 0;
-  uint64_t refined_depth_maps = 0;
+  uint64_t refined_depth_maps = 0;     // refinements kept (better by the estimator's evidence)
+  uint64_t refinements_rejected = 0;   // refinements worse than the depth map they would replace: dropped
   uint64_t keyframes_without_sources = 0;  // stored as a source only when they arrived
+  uint64_t skipped_kept_as_sources = 0;    // skipped keyframes stored as source views of the newer ones
   uint64_t keyframes_fused = 0;
   uint64_t keyframes_fused_again = 0;
   uint64_t map_points_added = 0;
@@ -116,7 +128,8 @@ struct PipelineStats {
   uint64_t gpu_memory_bytes = 0;       // device memory of the last estimate (CUDA)
 
   uint64_t droppedTotal() const {
-    return dropped_queue_full + dropped_invalid + dropped_backend_error + dropped_processing_error;
+    return dropped_queue_full + dropped_skipped_for_newer + dropped_invalid + dropped_backend_error +
+           dropped_processing_error;
   }
 };
 
@@ -199,6 +212,13 @@ class MappingPipeline {
   void account(const PipelineOutput& output);
   FusionResult fuse(const std::vector<FusionView>& views, const FusionOptions& options);
   void report(LogLevel level, const std::string& kind, const std::string& line);
+  // Why the input outruns the estimator, measured (keyframe interval, time
+  // per keyframe), and what to change: the end of the overload log lines.
+  std::string overloadAdvice() const;
+  // Step 2's keyframe: the oldest queued, or after an overflow the newest
+  // (the others dropped and counted; the newest max_sources of them, oldest
+  // first, into `sources`). False when nothing is queued.
+  bool takeNextKeyframe(Queued* next, std::vector<Keyframe>* sources);
 
   PipelineOptions options_;
   Log log_;
@@ -215,6 +235,9 @@ class MappingPipeline {
   mutable std::mutex queue_mutex_;   // queue_ and pending work
   std::condition_variable queue_cv_;
   std::vector<Queued> queue_;        // oldest first
+  bool overflowed_ = false;          // the queue dropped a keyframe since the last skip to the newest
+  double last_push_at_ = 0;          // steady seconds of the last push (0: none yet)
+  double mean_push_interval_s_ = 0;  // running mean of the seconds between pushes
   std::map<int64_t, Eigen::Isometry3d> pose_updates_;
   std::unique_ptr<std::pair<OnlineMapperOptions, PatchMatchOptions>> pending_options_;
   bool reset_requested_ = false;

@@ -30,7 +30,10 @@
 // offers later. refine() re-estimates such a keyframe (at most
 // refinement.max_refinements times) once its selection now would score at
 // least refinement.min_score_gain times the one it was estimated with, and
-// fuses it again (its map points are replaced).
+// fuses it again (its map points are replaced) -- when the new depth map is
+// not worse by the estimator's own evidence (refinement_evidence.h:
+// confident pixels; refinement.keep_only_better); otherwise the keyframe
+// keeps its depth map and fusion (result.refinement_rejected).
 //
 // So the second keyframe of a run, which has one depth map to be checked
 // against, waits until enough later depth maps exist; the last keyframes of a
@@ -68,6 +71,13 @@ struct RefinementOptions {
   // Re-estimate when the selection's total score (sum of the sources'
   // overlap x G(angle)) grew by this factor since the estimate (> 1).
   double min_score_gain = 1.25;
+  // Keep a refined depth map only when it is not worse by the estimator's
+  // evidence (judgeRefinement: confident pixels, cost (0..2) <=
+  // confident_cost, at least (1 - max_confident_loss) times the old map's;
+  // false: always replace).
+  bool keep_only_better = true;
+  double confident_cost = 0.5;
+  double max_confident_loss = 0.02;
 
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;
@@ -140,6 +150,11 @@ struct KeyframeResult {
   int64_t id = 0;
   bool late = false;             // from estimateLate(): a keyframe that arrived earlier
   bool refined = false;          // from refine(): a new depth map of an earlier keyframe
+  // refine(): the new depth map was worse by the estimator's evidence and was
+  // dropped; the keyframe keeps its depth map and points (`depth` is the
+  // dropped one, nothing was fused). refinement_evidence says why.
+  bool refinement_rejected = false;
+  std::string refinement_evidence;
   SourceSelection selection;
   bool has_depth = false;        // false: no source view (yet), stored as a source only
   DepthRangeEstimate depth_range;  // when has_depth
@@ -170,6 +185,12 @@ class OnlineMapper {
   // the keyframe was removed from the store again.
   KeyframeResult process(Keyframe keyframe);
 
+  // Stores a keyframe as a source view only: no depth map of its own, ever
+  // (e.g. one skipped for a newer keyframe while estimation lags behind).
+  // Returns the keyframes evicted from the store. Throws InputError for an
+  // invalid keyframe (nothing changes).
+  std::vector<int64_t> addSourceView(Keyframe keyframe);
+
   // Keyframes that had no source view when they arrived are re-checked,
   // oldest first; the first that has sources now gets its depth map and
   // fusion as in process() (result->late is true). At most one per call, so
@@ -180,7 +201,8 @@ class OnlineMapper {
 
   // Re-estimates one keyframe whose source selection improved enough since
   // its depth map was computed (see Refinement above), oldest first; its
-  // depth map is replaced and it is fused again (result->refined is true).
+  // depth map is replaced and it is fused again (result->refined is true),
+  // unless the new one is worse (result->refinement_rejected).
   // False (result untouched) when none qualifies. An exception of the
   // estimate function propagates; the keyframe keeps its depth map and is
   // not refined again.
@@ -243,6 +265,8 @@ class OnlineMapper {
   KeyframePoints fuse(int64_t id, const std::vector<int64_t>& view_ids) const;
   // Re-checks every waiting keyframe; fuses those with enough views.
   void fuseWaiting(KeyframeResult* result);
+  // Marks stored keyframe `id` done without depth (a source only).
+  void markSourceOnly(int64_t id, KeyframeResult* result);
   // Records evictions in the result; drops evicted waiting keyframes.
   void noteEvicted(const std::vector<int64_t>& evicted, KeyframeResult* result);
 

@@ -17,10 +17,14 @@ struct MappingConfig {
   // --- Input ---
   std::string input_mode = "pose";   // "pose" (image + camera_info + PoseStamped), "odometry", "tf", "keyframe"
   std::string fixed_frame = "world"; // tf mode: pose = fixed_frame <- image frame
+  // tf frame (child of fixed_frame) where the first keyframe with depth looked
+  // (view_anchor.h): the rviz config's view target; empty: not published.
+  std::string view_frame = "amhmvs_view";
   double tf_timeout = 0.1;           // wall seconds to wait for a transform (tf mode)
   // Bounded input queue of keyframes (drop-oldest). 32 holds the bursts of
   // the bags (11-16 keyframes in 3-5 s) while the CPU estimates for seconds.
   int queue_size = 32;
+  bool skip_to_newest = true;        // after a queue overflow take the newest keyframe (PipelineOptions)
   int sync_queue_size = 10;          // approximate-time synchroniser queue
   double sync_max_interval = 0.05;   // seconds between synchronised stamps
   // Keyframe picking (pose, odometry and tf modes): a frame becomes a keyframe

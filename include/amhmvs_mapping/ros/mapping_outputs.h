@@ -8,10 +8,13 @@
 //     fused (again, after a refinement);
 //   map: the global voxel map in the fixed frame, latched, published when it
 //     changed (at most once per ~map_publish_period) and to a new subscriber;
-//   keyframe_markers: keyframe frusta and the newest source links.
-// Each is built only while someone subscribes.
+//   keyframe_markers: keyframe frusta and the newest source links;
+//   tf: ~view_frame (static, child of the fixed frame) where the first
+//     keyframe with depth looked, the target of the rviz config's view.
+// Each is built only while someone subscribes (the view frame once).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -20,6 +23,7 @@
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
 #include <std_msgs/Header.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/ros/mapping_config.h"
@@ -54,6 +58,8 @@ class MappingOutputs {
   // when `requested` (a new subscriber); only while someone subscribes.
   void publishMap(const amhmvs::MappingPipeline& pipeline, bool requested);
   uint64_t mapPublications() const { return map_publications_; }
+  // The next keyframe with depth places the view frame again (after a reset).
+  void replaceViewFrame() { view_published_ = false; }
 
  private:
   MappingConfig config_;
@@ -64,6 +70,9 @@ class MappingOutputs {
   uint64_t published_map_revision_ = 0;
   bool published_map_ = false;
   ros::WallTime last_map_publish_;
+  std::unique_ptr<tf2_ros::StaticTransformBroadcaster> view_broadcaster_;
+  std::atomic<bool> view_published_{false};
+  void publishViewFrame(const amhmvs::KeyframeResult& result, const ros::Time& stamp);
   uint64_t map_publications_ = 0;
 };
 
