@@ -171,7 +171,9 @@ TEST(MappingPipeline, RefinementWaitsWhileKeyframesAreQueued) {
 }
 
 TEST(MappingPipeline, RejectedRefinementIsCountedLoggedAndNotPublished) {
-  WallPipeline wall(wallPipeline(), test::wallDepthWithABadRefinementOfKeyframe0);
+  PipelineOptions options = wallPipeline();
+  options.mapper.refinement.keep_only_better = true;
+  WallPipeline wall(options, test::wallDepthWithABadRefinementOfKeyframe0);
   for (int i = 0; i < 3; ++i) wall.pipeline.push(keyframeAt(i, 0.5 * i));
   std::vector<std::string> order;
   wall.pipeline.runUntilIdle([&](const PipelineOutput& output) { order.push_back(describe({output})[0]); });

@@ -237,7 +237,9 @@ TEST(OnlineMapper, RefineReestimatesAKeyframeOnceWhenLaterKeyframesGiveBetterSou
 }
 
 TEST(OnlineMapper, RefinementWorseByTheEstimatorsEvidenceIsRejectedAndABetterOneKept) {
-  OnlineMapper mapper(wallOptions(), test::wallDepthWithABadRefinementOfKeyframe0);
+  OnlineMapperOptions options = wallOptions();
+  options.refinement.keep_only_better = true;
+  OnlineMapper mapper(options, test::wallDepthWithABadRefinementOfKeyframe0);
   KeyframeResult result;
   mapper.process(keyframeAt(0, 0.0));
   mapper.process(keyframeAt(1, 0.5));
@@ -265,8 +267,7 @@ TEST(OnlineMapper, RefinementWorseByTheEstimatorsEvidenceIsRejectedAndABetterOne
   EXPECT_FALSE(mapper.refine(&result));
 
   // Switched off, the bad map replaces the good one (the old behaviour).
-  OnlineMapperOptions options = wallOptions();
-  options.refinement.keep_only_better = false;
+  options.refinement.keep_only_better = false;  // the default
   OnlineMapper always(options, test::wallDepthWithABadRefinementOfKeyframe0);
   always.process(keyframeAt(0, 0.0));
   always.process(keyframeAt(1, 0.5));

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <vector>
 #include <sstream>
 
 #include "amhmvs_mapping/core/realistic_capture.h"
@@ -77,17 +78,26 @@ TEST(SyntheticRealism, DefaultOutputIsTodaysBitForBit) {
   if (!canDecodeCompressedImages()) GTEST_SKIP() << "built without OpenCV (no PNG decoder)";
   test::TempDir dir;
   const std::string options = " --scene room --views 6 --width 160 --height 120";
+  std::vector<uint64_t> hashes;
   for (const std::string& extra : {std::string(), std::string(" --realism none --frame_period 0.1")}) {
     SCOPED_TRACE(extra);
     const std::string out = dir.file("seq" + std::to_string(extra.size()));
     const test::CommandResult r = test::runTool("amhmvs_synthetic", out + options + extra);
     ASSERT_EQ(r.exit_code, 0) << r.output;
+    hashes.push_back(sequenceHash(out, 6));
+#if !defined(__clang__)
     // The hash of this sequence as the tool wrote it before the realism mode
-    // existed (the binary of commit 71005dc; PNG pixels decoded).
-    EXPECT_EQ(sequenceHash(out, 6), 0x7e7cf2a28466b145ull) << std::hex << sequenceHash(out, 6);
+    // existed (the g++ build of commit 71005dc; PNG pixels decoded). clang
+    // rounds the renderer's float expressions differently, so its pixels
+    // differ from g++'s in the last bits anyway: there only the two runs are
+    // compared with each other.
+    EXPECT_EQ(hashes.back(), 0x7e7cf2a28466b145ull) << std::hex << hashes.back();
+#endif
     EXPECT_EQ(entries(out), (std::set<std::string>{"cams", "depth_gt", "images", "pair.txt"}));
     EXPECT_FALSE(readPosedSequence(out).frames[0].true_camera);  // the cams are the truth
   }
+  ASSERT_EQ(hashes.size(), 2u);
+  EXPECT_EQ(hashes[0], hashes[1]);  // --realism none is the default
 }
 
 TEST(SyntheticRealism, WritesTheTrackersPosesBesideTheExactTruth) {
