@@ -164,6 +164,19 @@ void MappingPipeline::init(EstimateFunction primary, EstimateFunction fallback, 
   mapper_.reset(new OnlineMapper(options_.mapper, estimate, fuse));
 }
 
+void MappingPipeline::forgetEvicted(const std::vector<int64_t>& evicted) {
+  // Keyframe ids are the estimator's image keys: an evicted keyframe's image
+  // and depth map leave the GPU too.
+  for (int64_t id : evicted) {
+    if (estimator_) estimator_->forget(id);
+    const auto fused = fused_keys_.find(id);
+    if (fused != fused_keys_.end()) {
+      fuser_->forget(fused->second);
+      fused_keys_.erase(fused);
+    }
+  }
+}
+
 FusionResult MappingPipeline::fuse(const std::vector<FusionView>& views, const FusionOptions& options) {
   if (fuser_) {
     for (const FusionView& view : views) {
@@ -443,16 +456,7 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
     return true;  // nothing new to publish
   }
   output.result.times.queue_wait_ms = queue_wait_ms;
-  // Keyframe ids are the estimator's image keys: an evicted keyframe's image
-  // and depth map leave the GPU too.
-  for (int64_t id : output.result.evicted) {
-    if (estimator_) estimator_->forget(id);
-    const auto fused = fused_keys_.find(id);
-    if (fused != fused_keys_.end()) {
-      fuser_->forget(fused->second);
-      fused_keys_.erase(fused);
-    }
-  }
+  forgetEvicted(output.result.evicted);
   account(output);
   outputs->push_back(std::move(output));
   return true;
@@ -490,9 +494,7 @@ std::vector<PipelineOutput> MappingPipeline::step() {
   for (Keyframe& source : skipped_sources) {
     const int64_t id = source.id;
     try {
-      const std::vector<int64_t> evicted = mapper_->addSourceView(std::move(source));
-      if (estimator_)
-        for (int64_t gone : evicted) estimator_->forget(gone);
+      forgetEvicted(mapper_->addSourceView(std::move(source)));
       std::lock_guard<std::mutex> stats(stats_mutex_);
       ++stats_.skipped_kept_as_sources;
     } catch (const InputError& e) {

@@ -211,6 +211,8 @@ class MappingPipeline {
            std::vector<PipelineOutput>* outputs, double queue_wait_ms);
   void account(const PipelineOutput& output);
   FusionResult fuse(const std::vector<FusionView>& views, const FusionOptions& options);
+  // Drops the GPU copies (estimator images, fuser depth maps) of evicted keyframes.
+  void forgetEvicted(const std::vector<int64_t>& evicted);
   void report(LogLevel level, const std::string& kind, const std::string& line);
   // Why the input outruns the estimator, measured (keyframe interval, time
   // per keyframe), and what to change: the end of the overload log lines.
