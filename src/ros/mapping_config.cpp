@@ -123,6 +123,15 @@ amhmvs::OnlineMapperOptions MappingConfig::defaultMapperOptions() {
   return options;
 }
 
+amhmvs::KeyframePickerOptions MappingConfig::keyframePicking() const {
+  amhmvs::KeyframePickerOptions options;
+  options.min_translation_m = keyframe_min_translation;
+  options.min_rotation_deg = keyframe_min_rotation_deg;
+  options.min_turning_translation_fraction = keyframe_min_turning_translation;
+  options.min_relative_sharpness = keyframe_min_relative_sharpness;
+  return options;
+}
+
 int effectiveMaxImageSize(int configured, amhmvs::Backend backend) {
   if (configured != -1) return configured;
   return backend == amhmvs::Backend::kCpu ? kCpuAutoMaxImageSize : 0;
@@ -142,6 +151,8 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
   read(pnh, "sync_max_interval", &c.sync_max_interval);
   read(pnh, "keyframe_min_translation", &c.keyframe_min_translation);
   read(pnh, "keyframe_min_rotation_deg", &c.keyframe_min_rotation_deg);
+  read(pnh, "keyframe_min_turning_translation", &c.keyframe_min_turning_translation);
+  read(pnh, "keyframe_min_relative_sharpness", &c.keyframe_min_relative_sharpness);
   read(pnh, "backend", &c.backend);
   read(pnh, "max_image_size", &c.max_image_size);
   read(pnh, "publish_depth_mm", &c.publish_depth_mm);
@@ -168,10 +179,13 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
           defaults.sync_queue_size);
   require(c.sync_max_interval >= 0, "sync_max_interval must be >= 0", c.sync_max_interval,
           defaults.sync_max_interval);
-  if (!(c.keyframe_min_translation >= 0) || !(c.keyframe_min_rotation_deg >= 0)) {
-    err << "keyframe_min_translation and keyframe_min_rotation_deg must be >= 0\n";
+  const std::string picking = c.keyframePicking().validate();
+  if (!picking.empty()) {
+    err << "keyframe picking (keyframe_*): " << picking << "using the defaults for keyframe picking\n";
     c.keyframe_min_translation = defaults.keyframe_min_translation;
     c.keyframe_min_rotation_deg = defaults.keyframe_min_rotation_deg;
+    c.keyframe_min_turning_translation = defaults.keyframe_min_turning_translation;
+    c.keyframe_min_relative_sharpness = defaults.keyframe_min_relative_sharpness;
   }
   try {
     amhmvs::parseBackend(c.backend);

@@ -24,6 +24,9 @@ const std::vector<InputStatField>& inputStatFields() {
       {"frames_received", &InputStats::frames_received},
       {"ignored_while_paused", &InputStats::ignored_while_paused},
       {"frames_not_keyframes", &InputStats::frames_not_keyframes},
+      {"frames_refused_pure_rotation", &InputStats::frames_refused_pure_rotation},
+      {"frames_refused_blurred", &InputStats::frames_refused_blurred},
+      {"blurred_frames_taken_anyway", &InputStats::blurred_frames_taken_anyway},
       {"keyframes_sent", &InputStats::keyframes_sent},
       {"dropped: encoding", &InputStats::dropped_encoding},
       {"dropped: bad_pose", &InputStats::dropped_bad_pose},
@@ -39,7 +42,10 @@ const std::vector<InputStatField>& inputStatFields() {
 
 MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const MappingConfig& config,
                              Callbacks callbacks)
-    : config_(config), callbacks_(std::move(callbacks)), started_(ros::WallTime::now()) {
+    : config_(config),
+      callbacks_(std::move(callbacks)),
+      picker_(config.keyframePicking()),
+      started_(ros::WallTime::now()) {
   keyframe_poses_sub_ = nh.subscribe("keyframe_poses", 10, &MappingInputs::keyframePosesCallback, this);
   if (config_.input_mode == "keyframe") {
     keyframe_sub_ = nh.subscribe("keyframe", 10, &MappingInputs::keyframeCallback, this);
@@ -109,13 +115,12 @@ void MappingInputs::setPaused(bool paused) {
 void MappingInputs::restart() {
   std::lock_guard<std::mutex> lock(input_mutex_);
   last_stamp_ = ros::Time();
-  have_last_keyframe_ = false;
+  picker_.reset();
 }
 
-void MappingInputs::setKeyframePicking(double min_translation, double min_rotation_deg) {
+void MappingInputs::setKeyframePicking(const amhmvs::KeyframePickerOptions& options) {
   std::lock_guard<std::mutex> lock(input_mutex_);
-  config_.keyframe_min_translation = min_translation;
-  config_.keyframe_min_rotation_deg = min_rotation_deg;
+  picker_.setOptions(options);
 }
 
 InputStats MappingInputs::stats() const {
@@ -287,6 +292,7 @@ void MappingInputs::offer(Frame frame, const geometry_msgs::Pose& pose, bool pic
     drop(&InputStats::dropped_bad_stamp, "stamp is zero (the sender did not fill the header)");
     return;
   }
+  amhmvs::ImageU8 converted;
   const ros::Time now = ros::Time::now();
   if (!now.isZero() && (frame.header.stamp - now).toSec() > kMaxStampAheadSeconds) {
     std::ostringstream out;
@@ -305,23 +311,27 @@ void MappingInputs::offer(Frame frame, const geometry_msgs::Pose& pose, bool pic
     }
     last_stamp_ = frame.header.stamp;
     if (pick) {
-      if (have_last_keyframe_) {
-        const double moved = (frame.camera_to_world.translation() - last_keyframe_pose_.translation()).norm();
-        const double turned = Eigen::AngleAxisd(last_keyframe_pose_.linear().transpose() *
-                                                frame.camera_to_world.linear()).angle() * 180.0 / M_PI;
-        if (moved < config_.keyframe_min_translation && turned < config_.keyframe_min_rotation_deg) {
-          count(&InputStats::frames_not_keyframes);
-          return;
-        }
+      // The image is converted only for candidates, once: the keyframe reuses it.
+      const auto sharpness = [&frame, &converted] {
+        // Not judged (NaN) when it cannot be converted: toKeyframe reports why.
+        return imageFromMsg(*frame.image, &converted).empty() ? amhmvs::imageSharpness(converted) : std::nan("");
+      };
+      const amhmvs::KeyframePickerStats before = picker_.stats();
+      const amhmvs::PickDecision decision = picker_.offer(frame.camera_to_world, sharpness);
+      if (picker_.stats().blurred_taken_anyway > before.blurred_taken_anyway)
+        count(&InputStats::blurred_frames_taken_anyway);
+      switch (decision) {
+        case amhmvs::PickDecision::kKeyframe: break;
+        case amhmvs::PickDecision::kTooClose: count(&InputStats::frames_not_keyframes); return;
+        case amhmvs::PickDecision::kPureRotation: count(&InputStats::frames_refused_pure_rotation); return;
+        case amhmvs::PickDecision::kBlurred: count(&InputStats::frames_refused_blurred); return;
       }
       frame.id = next_id_++;
     }
-    have_last_keyframe_ = true;
-    last_keyframe_pose_ = frame.camera_to_world;
   }
   amhmvs::Keyframe keyframe;
   try {
-    keyframe = toKeyframe(frame);
+    keyframe = toKeyframe(frame, std::move(converted));
   } catch (const amhmvs::InputError& e) {
     drop(&InputStats::dropped_bad_keyframe, "keyframe " + std::to_string(frame.id) + ": " + e.what());
     return;
@@ -330,11 +340,12 @@ void MappingInputs::offer(Frame frame, const geometry_msgs::Pose& pose, bool pic
   callbacks_.keyframe(std::move(keyframe), frame.header);
 }
 
-amhmvs::Keyframe MappingInputs::toKeyframe(const Frame& frame) const {
+amhmvs::Keyframe MappingInputs::toKeyframe(const Frame& frame, amhmvs::ImageU8 converted) const {
   amhmvs::Keyframe keyframe;
   keyframe.id = frame.id;
   keyframe.stamp = frame.header.stamp.toSec();
-  std::string problem = imageFromMsg(*frame.image, &keyframe.image);
+  keyframe.image = std::move(converted);
+  std::string problem = keyframe.image.empty() ? imageFromMsg(*frame.image, &keyframe.image) : std::string();
   if (problem.empty())
     problem = cameraFromMsg(*frame.info, keyframe.image.width, keyframe.image.height, frame.camera_to_world,
                             &keyframe.camera);

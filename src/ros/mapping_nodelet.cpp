@@ -139,8 +139,13 @@ bool MappingNodelet::saveMapService(amhmvs_mapping::SaveMap::Request& req, amhmv
 
 void MappingNodelet::reconfigure(MappingTunablesConfig& tunables, uint32_t /*level*/) {
   applyTunables(tunables, &reconfigured_);
-  if (inputs_) inputs_->setKeyframePicking(reconfigured_.keyframe_min_translation,
-                                           reconfigured_.keyframe_min_rotation_deg);
+  if (inputs_) {
+    try {
+      inputs_->setKeyframePicking(reconfigured_.keyframePicking());
+    } catch (const amhmvs::InputError& e) {
+      NODELET_ERROR("reconfigure: %s (keyframe picking unchanged)", e.what());
+    }
+  }
   pipeline_->setOptions(reconfigured_.mapper, reconfigured_.estimator);
   NODELET_INFO("reconfigured: %d iterations, up to %d sources, voxel size %.3f m (applied before the next keyframe)",
                reconfigured_.estimator.num_iterations, reconfigured_.mapper.sources.max_sources,

@@ -136,7 +136,8 @@ int run(const std::vector<std::string>& args) {
   const std::string sequence_dir = args[0], output_dir = args[1];
   MapToolOptions options = parseMapToolArguments(std::vector<std::string>(args.begin() + 2, args.end()));
   const PosedSequence sequence = readPosedSequence(sequence_dir, options.sequence);
-  const std::vector<size_t> picked = pickKeyframes(sequence.frames, options.frames);
+  const PickedKeyframes picking = pickKeyframes(sequence.frames, options.frames);
+  const std::vector<size_t>& picked = picking.indices;
   if (picked.empty()) {
     throw InputError(sequence_dir + ": no frame selected (" + std::to_string(sequence.frames.size()) +
                      " frames; check --start, --count)");
@@ -145,6 +146,7 @@ int run(const std::vector<std::string>& args) {
   MapRunTotals totals;
   totals.frames_looked_at = framesLookedAt(sequence.frames.size(), options.frames);
   totals.keyframes_picked = picked.size();
+  totals.picking = picking.stats;
 
   MappingPipeline pipeline(options.pipeline, stderrLog(options.quiet));
   if (!options.quiet) {

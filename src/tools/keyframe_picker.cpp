@@ -1,33 +1,23 @@
 #include "keyframe_picker.h"
 
-#include <cmath>
+#include "amhmvs_mapping/io/image_io.h"
 
 namespace amhmvs {
 
-namespace {
-
-double rotationDeg(const PinholeCamera& a, const PinholeCamera& b) {
-  return Eigen::AngleAxisd(a.R * b.R.transpose()).angle() * 180.0 / M_PI;
-}
-
-}  // namespace
-
-std::vector<size_t> pickKeyframes(const std::vector<PosedFrame>& frames, const FrameSelection& selection) {
-  std::vector<size_t> picked;
-  const bool every_frame = selection.min_translation_m <= 0 && selection.min_rotation_deg <= 0;
+PickedKeyframes pickKeyframes(const std::vector<PosedFrame>& frames, const FrameSelection& selection) {
+  KeyframePicker picker(selection.picking);
+  PickedKeyframes picked;
   size_t looked_at = 0;
   for (size_t i = selection.start; i < frames.size(); i += selection.stride) {
     if (selection.count > 0 && looked_at++ == selection.count) break;
-    if (!picked.empty() && !every_frame) {
-      const PinholeCamera& last = frames[picked.back()].camera;
-      const PinholeCamera& now = frames[i].camera;
-      const bool moved = selection.min_translation_m > 0 &&
-                         (now.center() - last.center()).norm() >= selection.min_translation_m;
-      const bool turned = selection.min_rotation_deg > 0 && rotationDeg(now, last) >= selection.min_rotation_deg;
-      if (!moved && !turned) continue;
-    }
-    picked.push_back(i);
+    const PosedFrame& frame = frames[i];
+    const auto sharpness = [&frame] {
+      const ImageU8 image = readImage(frame.image_path);
+      return imageSharpness(image);
+    };
+    if (picker.offer(cameraToWorld(frame.camera), sharpness) == PickDecision::kKeyframe) picked.indices.push_back(i);
   }
+  picked.stats = picker.stats();
   return picked;
 }
 

@@ -47,8 +47,12 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     else if (name == "start") frames.start = parseValue<size_t>(name, value);
     else if (name == "count") frames.count = parseValue<size_t>(name, value);
     else if (name == "stride") frames.stride = parseValue<size_t>(name, value);
-    else if (name == "keyframe_min_translation") frames.min_translation_m = parseValue<double>(name, value);
-    else if (name == "keyframe_min_rotation_deg") frames.min_rotation_deg = parseValue<double>(name, value);
+    else if (name == "keyframe_min_translation") frames.picking.min_translation_m = parseValue<double>(name, value);
+    else if (name == "keyframe_min_rotation_deg") frames.picking.min_rotation_deg = parseValue<double>(name, value);
+    else if (name == "keyframe_min_turning_translation")
+      frames.picking.min_turning_translation_fraction = parseValue<double>(name, value);
+    else if (name == "keyframe_min_relative_sharpness")
+      frames.picking.min_relative_sharpness = parseValue<double>(name, value);
     else if (name == "realtime") options.realtime_rate = parseValue<double>(name, value);
     else if (name == "depth_min") options.depth_min = parseValue<double>(name, value);
     else if (name == "depth_max") options.depth_max = parseValue<double>(name, value);
@@ -67,8 +71,9 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
   };
   require(options.max_image_size >= 0, "max_image_size must be >= 0");
   require(frames.stride >= 1, "stride must be >= 1");
-  require(frames.min_translation_m >= 0 && frames.min_rotation_deg >= 0,
-          "keyframe_min_translation and keyframe_min_rotation_deg must be >= 0");
+  std::ostringstream picking;
+  appendProblems("keyframe picking", frames.picking.validate(), &picking);
+  problems += picking.str();
   require(options.realtime_rate >= 0 && std::isfinite(options.realtime_rate), "realtime must be >= 0");
   require((options.depth_min == 0 && options.depth_max == 0) ||
               (options.depth_min > 0 && options.depth_max > options.depth_min && std::isfinite(options.depth_max)),
@@ -106,6 +111,12 @@ std::string mapToolUsage() {
          "  --keyframe_min_translation M     a keyframe after this much motion (default 0.05 m)\n"
          "  --keyframe_min_rotation_deg D    ... or this much rotation (default 5; both 0: all);\n"
          "                                   motion in the poses' unit (a COLMAP model's is arbitrary)\n"
+         "  --keyframe_min_turning_translation F  a frame that only turned, moving less than\n"
+         "                                   F x keyframe_min_translation, is a pure rotation: not a\n"
+         "                                   keyframe (default 0.5; 0: off)\n"
+         "  --keyframe_min_relative_sharpness S   a candidate blurrier than S x the median sharpness\n"
+         "                                   of the recent candidates is skipped, the next frame tried\n"
+         "                                   (default 0.8; 0: off; 4 in a row: taken anyway)\n"
          "  --realtime RATE                  feed frames at RATE x the recording's rate from\n"
          "                                   another thread; a full queue drops the oldest\n"
          "                                   (default: offline, every keyframe waits)\n"

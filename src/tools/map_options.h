@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "amhmvs_mapping/io/posed_sequence.h"
+#include "amhmvs_mapping/mapping/keyframe_picker.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
 
 namespace amhmvs {
@@ -15,11 +16,8 @@ struct FrameSelection {
   size_t start = 0;   // first frame (index into the sequence)
   size_t count = 0;   // frames looked at after start (after stride); 0 = all
   size_t stride = 1;  // every stride-th frame
-  // A frame becomes a keyframe when the camera moved at least this far or
-  // turned at least this much since the last keyframe (the first always is);
-  // both 0: every frame.
-  double min_translation_m = 0.05;
-  double min_rotation_deg = 5.0;
+  // Motion, pure-rotation and blur tests (mapping/keyframe_picker.h).
+  KeyframePickerOptions picking;
 };
 
 struct MapToolOptions {

@@ -334,6 +334,11 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   summary.add("frames", std::to_string(sequence_.frames.size()));
   summary.add("frames_looked_at", std::to_string(totals.frames_looked_at));
   summary.add("keyframes_picked", std::to_string(totals.keyframes_picked));
+  JsonFields refused;
+  refused.add("pure_rotation", std::to_string(totals.picking.refused_pure_rotation));
+  refused.add("blurred", std::to_string(totals.picking.refused_blurred));
+  refused.add("blurred_taken_anyway", std::to_string(totals.picking.blurred_taken_anyway));
+  summary.add("keyframes_refused", refused.object());
   summary.add("keyframes_pushed", std::to_string(totals.keyframes_pushed));
   JsonFields kinds;
   for (const char* kind : {"new", "late", "refined", "source_only"}) {
@@ -390,9 +395,11 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
 
   char text[512];
   std::snprintf(text, sizeof(text),
-                "%zu keyframes of %zu frames: %zu new, %zu late, %zu refined depth maps (%llu refinements "
+                "%zu keyframes of %zu frames (refused: %llu blurred, %llu pure rotations): %zu new, %zu late, %zu refined depth maps (%llu refinements "
                 "rejected), %llu dropped; %.1f s",
-                totals.keyframes_picked, totals.frames_looked_at, depth_maps, late,
+                totals.keyframes_picked, totals.frames_looked_at,
+                static_cast<unsigned long long>(totals.picking.refused_blurred),
+                static_cast<unsigned long long>(totals.picking.refused_pure_rotation), depth_maps, late,
                 kinds_.count("refined") ? kinds_.at("refined") : 0,
                 static_cast<unsigned long long>(stats.refinements_rejected),
                 static_cast<unsigned long long>(stats.droppedTotal()), totals.wall_s);

@@ -26,6 +26,7 @@ namespace amhmvs {
 struct MapRunTotals {
   size_t frames_looked_at = 0;
   size_t keyframes_picked = 0;
+  KeyframePickerStats picking;  // refusals by reason
   size_t keyframes_pushed = 0;
   double wall_s = 0;       // first push to last output
   double reading_s = 0;    // decoding and scaling images (before push)

@@ -31,21 +31,28 @@ std::vector<PosedFrame> walkingFrames(int count) {
 TEST(MapTool, PicksKeyframesByTranslationAndRotation) {
   const std::vector<PosedFrame> frames = walkingFrames(40);
   FrameSelection selection;  // thresholds between the steps (no ties to round)
-  selection.min_translation_m = 0.045;
-  selection.min_rotation_deg = 4.5;
-  const std::vector<size_t> picked = pickKeyframes(frames, selection);
+  selection.picking.min_translation_m = 0.045;
+  selection.picking.min_rotation_deg = 4.5;
+  selection.picking.min_relative_sharpness = 0;  // the frames have no images
+  // Frames 20-39 turn in place: refused as pure rotations by default.
+  PickedKeyframes picked = pickKeyframes(frames, selection);
+  EXPECT_EQ(picked.indices, (std::vector<size_t>{0, 5, 10, 15, 20}));
+  EXPECT_EQ(picked.stats.refused_pure_rotation, 15u);  // 25..39: each turned >= 4.5 deg from frame 20
+  selection.picking.min_turning_translation_fraction = 0;
+  picked = pickKeyframes(frames, selection);
   // 0, 5, 10, 15, 20 by translation (5 cm), then 25, 30, 35 by rotation (5 deg).
-  EXPECT_EQ(picked, (std::vector<size_t>{0, 5, 10, 15, 20, 25, 30, 35}));
-  selection.min_rotation_deg = 0;
-  EXPECT_EQ(pickKeyframes(frames, selection), (std::vector<size_t>{0, 5, 10, 15, 20}));
-  selection.min_translation_m = 0;
-  EXPECT_EQ(pickKeyframes(frames, selection).size(), 40u);  // both 0: every frame
+  EXPECT_EQ(picked.indices, (std::vector<size_t>{0, 5, 10, 15, 20, 25, 30, 35}));
+  EXPECT_EQ(picked.stats.refused_pure_rotation, 0u);
+  selection.picking.min_rotation_deg = 0;
+  EXPECT_EQ(pickKeyframes(frames, selection).indices, (std::vector<size_t>{0, 5, 10, 15, 20}));
+  selection.picking.min_translation_m = 0;
+  EXPECT_EQ(pickKeyframes(frames, selection).indices.size(), 40u);  // both 0: every frame
   selection.start = 3;
   selection.stride = 4;
   selection.count = 5;
-  EXPECT_EQ(pickKeyframes(frames, selection), (std::vector<size_t>{3, 7, 11, 15, 19}));
+  EXPECT_EQ(pickKeyframes(frames, selection).indices, (std::vector<size_t>{3, 7, 11, 15, 19}));
   selection.start = 40;
-  EXPECT_TRUE(pickKeyframes(frames, selection).empty());
+  EXPECT_TRUE(pickKeyframes(frames, selection).indices.empty());
 }
 
 TEST(MapTool, ParsesOptionsAndRefusesBadOnes) {
@@ -60,7 +67,7 @@ TEST(MapTool, ParsesOptionsAndRefusesBadOnes) {
   EXPECT_EQ(options.pipeline.estimator.num_iterations, 3);
   EXPECT_EQ(options.frames.count, 20u);
   EXPECT_EQ(options.frames.stride, 2u);
-  EXPECT_EQ(options.frames.min_translation_m, 0.1);
+  EXPECT_EQ(options.frames.picking.min_translation_m, 0.1);
   EXPECT_EQ(options.pipeline.mapper.map.leaf_size, 0.05);
   EXPECT_EQ(options.sequence.color_intrinsics.fx, 528);
   EXPECT_EQ(options.sequence.color_offset.x(), -0.010);

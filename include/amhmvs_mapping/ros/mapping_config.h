@@ -8,6 +8,7 @@
 
 #include <ros/node_handle.h>
 
+#include "amhmvs_mapping/mapping/keyframe_picker.h"
 #include "amhmvs_mapping/mapping/online_mapper.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
 
@@ -27,10 +28,18 @@ struct MappingConfig {
   bool skip_to_newest = true;        // after a queue overflow take the newest keyframe (PipelineOptions)
   int sync_queue_size = 10;          // approximate-time synchroniser queue
   double sync_max_interval = 0.05;   // seconds between synchronised stamps
-  // Keyframe picking (pose, odometry and tf modes): a frame becomes a keyframe
-  // when it moved at least this far from the last keyframe (either criterion).
+  // Keyframe picking (pose, odometry and tf modes; mapping/keyframe_picker.h):
+  // a frame is a candidate when it moved at least this far from the last
+  // keyframe (either criterion) ...
   double keyframe_min_translation = 0.1;   // metres
   double keyframe_min_rotation_deg = 10.0; // degrees
+  // ... and is refused as a pure rotation when it moved less than this
+  // fraction of keyframe_min_translation (0: off), or as blurred when its
+  // sharpness is below this fraction of the recent candidates' median (0: off).
+  double keyframe_min_turning_translation = 0.5;
+  double keyframe_min_relative_sharpness = 0.8;
+
+  amhmvs::KeyframePickerOptions keyframePicking() const;
 
   // --- Estimation ---
   std::string backend = "auto";      // auto, cuda, cpu

@@ -6,9 +6,10 @@
 //             (TfFrameFilter: held until the transform is there, no waiting);
 //   keyframe: keyframe (amhmvs_mapping/Keyframe);
 // and, in every mode, keyframe_poses (KeyframePoses: loop-closure updates).
-// In pose, odometry and tf modes a frame becomes a keyframe when it moved at
-// least ~keyframe_min_translation or turned at least
-// ~keyframe_min_rotation_deg from the last keyframe.
+// In pose, odometry and tf modes the core KeyframePicker decides which frames
+// become keyframes: moved at least ~keyframe_min_translation or turned at
+// least ~keyframe_min_rotation_deg from the last keyframe, and neither a pure
+// rotation nor blurred (keyframe_picker.h).
 //
 // Each accepted keyframe is checked (encoding, pose, camera_info, stamp
 // order), converted to a core Keyframe (grey or RGB, undistorted to the
@@ -40,6 +41,7 @@
 
 #include "amhmvs_mapping/Keyframe.h"
 #include "amhmvs_mapping/KeyframePoses.h"
+#include "amhmvs_mapping/mapping/keyframe_picker.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "amhmvs_mapping/ros/image_rectifier.h"
 #include "amhmvs_mapping/ros/mapping_config.h"
@@ -52,6 +54,9 @@ struct InputStats {
   uint64_t frames_received = 0;
   uint64_t ignored_while_paused = 0;
   uint64_t frames_not_keyframes = 0;  // too close to the last keyframe
+  uint64_t frames_refused_pure_rotation = 0;  // turned enough but hardly moved: no baseline
+  uint64_t frames_refused_blurred = 0;        // blurrier than the recent candidates
+  uint64_t blurred_frames_taken_anyway = 0;   // after ~max_blurred_in_a_row refusals
   uint64_t keyframes_sent = 0;        // handed to the pipeline
   uint64_t dropped_encoding = 0;
   uint64_t dropped_bad_pose = 0;
@@ -88,7 +93,9 @@ class MappingInputs {
   void setPaused(bool paused);
   // After ~reset: stamps may start again, the next frame is a keyframe.
   void restart();
-  void setKeyframePicking(double min_translation, double min_rotation_deg);
+  // New picking options (dynamic reconfigure); invalid ones are refused
+  // (InputError) and the old ones stay.
+  void setKeyframePicking(const amhmvs::KeyframePickerOptions& options);
   InputStats stats() const;
   // What is wrong with the input topics now, one line each (empty: nothing):
   // a topic without a publisher; a topic silent for `silence_s` seconds while
@@ -128,7 +135,8 @@ class MappingInputs {
   void offer(Frame frame, const geometry_msgs::Pose& pose, bool pick);
   // The frame's image and camera (downscaled to ~max_image_size) as a core
   // keyframe; throws amhmvs::InputError when they do not fit together.
-  amhmvs::Keyframe toKeyframe(const Frame& frame) const;
+  // `converted`: the image already converted (imageFromMsg), else empty.
+  amhmvs::Keyframe toKeyframe(const Frame& frame, amhmvs::ImageU8 converted) const;
   // One input topic: its resolved name, publishers and last arrival.
   struct Topic {
     std::string name;
@@ -168,8 +176,7 @@ class MappingInputs {
   std::mutex input_mutex_;
   bool paused_ = false;
   ros::Time last_stamp_;
-  bool have_last_keyframe_ = false;
-  Eigen::Isometry3d last_keyframe_pose_ = Eigen::Isometry3d::Identity();
+  amhmvs::KeyframePicker picker_;
   int64_t next_id_ = 0;
 
   mutable std::mutex stats_mutex_;
