@@ -22,7 +22,11 @@
 //      never capped to the views there are), its depth map is fused against
 //      them (fuseDepthMaps) exactly once and its fused points (camera frame)
 //      are stored with it;
-//   6. those points into the global VoxelMap at the keyframe's current pose.
+//   6. those points into the global VoxelMap at the keyframe's current pose;
+//   7. with confidence.enabled, when it is fused: its calibrated per-pixel
+//      confidence against the same consistency views and its depth map as
+//      published, masked below confidence.min_probability
+//      (depth_confidence.h; FusedKeyframe::published).
 //
 // Refinement (refine()): a keyframe's sources are chosen among the keyframes
 // stored when it is estimated, so early keyframes of a run, and any keyframe
@@ -57,6 +61,7 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/serial_worker.h"
+#include "amhmvs_mapping/mapping/depth_confidence.h"
 #include "amhmvs_mapping/mapping/depth_range.h"
 #include "amhmvs_mapping/mapping/fusion.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
@@ -93,6 +98,7 @@ struct OnlineMapperOptions {
   FusionOptions fusion = FusionOptions::reprojection();
   VoxelMapOptions map;
   RefinementOptions refinement;
+  ConfidenceOptions confidence;
   // The voxel-map update of a fused keyframe runs on a worker thread while
   // the caller goes on (with a GPU estimator: while the next keyframe is
   // estimated, when the CPU would otherwise wait); every later use of the
@@ -125,6 +131,7 @@ struct FusedKeyframe {
   std::vector<int64_t> consistency_ids;  // the other depth maps it was checked against
   bool again = false;                   // fused before (refined), with or without points: they are replaced
   KeyframePoints points;                // fused points, camera frame
+  PublishedDepth published;             // with confidence.enabled: the depth map as published, its confidence
 };
 
 // One finished update of the voxel map (OnlineMapper::takeMapUpdates).
@@ -144,6 +151,7 @@ struct StageTimes {
   double estimate_ms = 0;      // the estimator, wall clock (its own time: DepthMap::milliseconds)
   double store_ms = 0;         // copies into the keyframe store (keyframe, depth map, fused points)
   double fusion_ms = 0;        // consistency views and checks of the keyframes fused by this result
+  double confidence_ms = 0;    // their confidence and published depth (confidence.enabled)
   double map_ms = 0;           // voxel map updates, or waiting for the one in the background
   double total_ms = 0;         // the whole call (without queue_wait_ms)
 };
@@ -266,6 +274,8 @@ class OnlineMapper {
   std::vector<int64_t> consistencyViews(int64_t id) const;
   // Fuses keyframe `id`'s depth map against the consistency views.
   KeyframePoints fuse(int64_t id, const std::vector<int64_t>& view_ids) const;
+  // Its confidence and published depth against the same views.
+  PublishedDepth publish(int64_t id, const std::vector<int64_t>& view_ids) const;
   // Re-checks every waiting keyframe; fuses those with enough views.
   void fuseWaiting(KeyframeResult* result);
   // Marks stored keyframe `id` done without depth (a source only).

@@ -52,8 +52,12 @@ sensor_msgs::ImagePtr depthImageMsg(const amhmvs::ImageF& depth, const std_msgs:
 sensor_msgs::ImagePtr depthImageMillimetresMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header);
 // CameraInfo of the (possibly downscaled) camera: K, P, no distortion.
 sensor_msgs::CameraInfoPtr cameraInfoMsg(const amhmvs::PinholeCamera& camera, const std_msgs::Header& header);
-// 32FC1 confidence in [0, 1]: 1 - cost / 2 where the depth is valid, else 0.
+// 32FC1 confidence in [0, 1]: 1 - cost / 2 where the depth is valid, else 0
+// (without the calibrated confidence, ~confidence/enabled false).
 sensor_msgs::ImagePtr confidenceImageMsg(const amhmvs::DepthMap& map, const std_msgs::Header& header);
+// 32FC1 calibrated confidence (depth_confidence.h): the probability that the
+// depth is within 5 %, in [0, 1], 0 where the depth map has no estimate.
+sensor_msgs::ImagePtr confidenceImageMsg(const amhmvs::PublishedDepth& published, const std_msgs::Header& header);
 // bgr8 viridis colour map of the depth over its robust (2 %..98 %) range;
 // null when the depth has no finite pixel.
 sensor_msgs::ImagePtr depthPreviewMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header);
