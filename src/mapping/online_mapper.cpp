@@ -45,6 +45,12 @@ double selectionScore(const SourceSelection& selection) {
 
 }  // namespace
 
+FusionOptions onlineFusionOptions() {
+  FusionOptions options = FusionOptions::reprojection();
+  options.max_relative_depth_difference = 0.02f;
+  return options;
+}
+
 void appendProblems(const std::string& group, const std::string& problems, std::ostringstream* out) {
   std::istringstream lines(problems);
   for (std::string line; std::getline(lines, line);)

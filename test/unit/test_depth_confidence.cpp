@@ -77,21 +77,24 @@ Verdict bruteForce(const FusionView& ref, const FusionView& src, const FusionOpt
 
 TEST(DepthConfidence, AgreementCountsEqualABruteForceReference) {
   Views v = renderViews(4, 48, 36);
-  // Views 1 and 2 wrong in blocks (10 % and 0.5 % too far) and view 3 noisy
-  // by up to 3 %: every verdict occurs, at many distances from the thresholds.
+  // Views 1 and 2 wrong in blocks (10 % and 2 % too far) and view 3 noisy
+  // by up to 6 %: every verdict occurs, at many distances from the thresholds.
   for (int y = 5; y < 30; ++y)
     for (int x = 5; x < 25; ++x) v.images[1].depth.at(x, y) *= 1.10f;
   for (int y = 10; y < 36; ++y)
-    for (int x = 20; x < 48; ++x) v.images[2].depth.at(x, y) *= 1.005f;
+    for (int x = 20; x < 48; ++x) v.images[2].depth.at(x, y) *= 1.02f;
   std::mt19937 rng(3);
-  std::uniform_real_distribution<float> noise(-0.03f, 0.03f);
+  std::uniform_real_distribution<float> noise(-0.06f, 0.06f);
   for (float& d : v.images[3].depth.data) d *= 1 + noise(rng);
   v.images[3].depth.at(7, 7) = kNaN;
+  for (int y = 0; y < 18; ++y)  // normals the 10 degree check refuses
+    for (int x = 24; x < 48; ++x) v.images[3].normal.at(x, y, 0) += 1.0f;
   v.images[0].depth.at(3, 4) = kNaN;
   const FusionView& ref = v.views[0];
   const std::vector<FusionView> others(v.views.begin() + 1, v.views.end());
   FusionOptions with_normals = defaultConfidenceCalibration().checks;
   with_normals.max_normal_angle_deg = 10;
+  std::vector<int> agreeing_totals;
   for (const FusionOptions& checks : {defaultConfidenceCalibration().checks, with_normals}) {
     const AgreementCounts counts = countAgreement(ref, others, checks);
     int agreeing_total = 0, disagreeing_total = 0;
@@ -111,9 +114,12 @@ TEST(DepthConfidence, AgreementCountsEqualABruteForceReference) {
         disagreeing_total += seen - agreeing;
       }
     }
-    EXPECT_GT(agreeing_total, 1000);
-    EXPECT_GT(disagreeing_total, 1000);
+    std::cout << "[ agreement ] " << agreeing_total << " agreeing, " << disagreeing_total << " disagreeing\n";
+    EXPECT_GT(agreeing_total, 500);
+    EXPECT_GT(disagreeing_total, 500);
+    agreeing_totals.push_back(agreeing_total);
   }
+  EXPECT_LT(agreeing_totals[1], agreeing_totals[0]);  // the normal check refused some
 }
 
 // Three parallel cameras 0.2 m apart facing a plane at 4 m (f = 50 px): the
@@ -175,7 +181,8 @@ TEST(DepthConfidence, PublishedDepthIsNaNExactlyWhereTheConfidenceIsBelowTheLeve
       }
     }
   }
-  EXPECT_THROW(maskDepth(depth, ImageF(4, 3), 0.5f), InputError);
+  const ImageF small(4, 3);
+  EXPECT_THROW(maskDepth(depth, small, 0.5f), InputError);
 }
 
 TEST(DepthConfidence, FitIsLaplaceSmoothedShareWithinPerCell) {

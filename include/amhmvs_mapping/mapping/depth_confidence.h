@@ -30,8 +30,10 @@ struct ConfidenceOptions {
   // they are estimated, with 1 - cost / 2 as their confidence).
   bool enabled = true;
   // Published depth: NaN where the confidence is below this (0: nothing
-  // masked). Chosen from the precision/completeness curve (README).
-  float min_probability = 0.5f;
+  // masked). From the precision/completeness curve (README): on redkitchen
+  // 90.6 % of the published pixels are within 10 % of the Kinect depth at
+  // 23.3 % completeness (unmasked 55.9 % at 94.5 %).
+  float min_probability = 0.97f;
 
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;
