@@ -17,6 +17,7 @@
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
 #include "amhmvs_mapping/io/point_cloud_io.h"
+#include "amhmvs_mapping/mapping/depth_confidence.h"
 #include "amhmvs_mapping/mapping/keyframe_point.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 
