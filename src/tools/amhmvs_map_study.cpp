@@ -118,6 +118,8 @@ struct KeyframeRecord {
 struct RunRecord {
   std::map<int64_t, KeyframeRecord> keyframes;
   std::vector<Eigen::Vector3f> map_points;
+  double fusion_ms = 0, confidence_ms = 0;  // summed over the results
+  size_t fusions = 0;
 };
 
 FusionView viewOf(int local_id, const KeyframeRecord& record) {
@@ -131,6 +133,9 @@ FusionView viewOf(int local_id, const KeyframeRecord& record) {
 }
 
 void recordOutput(const KeyframeResult& result, const std::vector<FusionOptions>& agreements, RunRecord* run) {
+  run->fusion_ms += result.times.fusion_ms;
+  run->confidence_ms += result.times.confidence_ms;
+  run->fusions += result.fused.size();
   if (result.has_depth && !result.refinement_rejected) {
     KeyframeRecord& record = run->keyframes[result.id];
     record.camera = result.camera;
@@ -349,6 +354,11 @@ int run(const std::vector<std::string>& args) {
     arguments.insert(arguments.end(), study.variants[v].begin(), study.variants[v].end());
     const RunRecord run = runOnce(keyframes, parseMapToolArguments(arguments), v == 0 ? study.agreements : std::vector<FusionOptions>(), &cache);
     if (v == 0) {
+      char text[160];
+      std::snprintf(text, sizeof(text), "fusion %.1f ms, confidence %.1f ms per fused keyframe (%zu fusions)\n",
+                    run.fusion_ms / std::max<size_t>(1, run.fusions), run.confidence_ms / std::max<size_t>(1, run.fusions),
+                    run.fusions);
+      report << text;
       truth.reset(new Truth(readTruth(sequence, run)));
       report << levelTable(run, *truth, study.levels) << agreementTable(run, *truth, study)
              << calibrationReport(run, *truth, out_dir);
@@ -371,5 +381,6 @@ int run(const std::vector<std::string>& args) {
 }  // namespace amhmvs
 
 int main(int argc, char** argv) {
-  return amhmvs::runToolMain("amhmvs_map_study", amhmvs::kUsage, argc, argv, 2, true, amhmvs::run);
+  const std::string usage = amhmvs::kUsage + "\nThe amhmvs_map options (its --help):\n\n" + amhmvs::mapToolUsage();
+  return amhmvs::runToolMain("amhmvs_map_study", usage, argc, argv, 2, true, amhmvs::run);
 }

@@ -29,7 +29,8 @@ const std::vector<std::pair<const char*, double StageTimes::*>>& stageFields() {
       {"queue_wait_ms", &StageTimes::queue_wait_ms}, {"selection_ms", &StageTimes::selection_ms},
       {"depth_range_ms", &StageTimes::depth_range_ms}, {"problem_ms", &StageTimes::problem_ms},
       {"estimate_ms", &StageTimes::estimate_ms},     {"fusion_ms", &StageTimes::fusion_ms},
-      {"map_ms", &StageTimes::map_ms},               {"total_ms", &StageTimes::total_ms}};
+      {"confidence_ms", &StageTimes::confidence_ms}, {"map_ms", &StageTimes::map_ms},
+      {"total_ms", &StageTimes::total_ms}};
   return fields;
 }
 
