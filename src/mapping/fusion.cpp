@@ -78,7 +78,9 @@ namespace {
 
 std::string viewName(int id) { return "fusion: view " + std::to_string(id); }
 
-void checkViews(const std::vector<FusionView>& views, const FusionOptions& options) {
+}  // namespace
+
+void fusion::checkViews(const std::vector<FusionView>& views, const FusionOptions& options) {
   const std::string why = options.validate();
   if (!why.empty()) throw InputError("fusion options: " + why);
   if (views.empty()) throw InputError("fusion: no views to fuse");
@@ -125,8 +127,6 @@ void checkViews(const std::vector<FusionView>& views, const FusionOptions& optio
     }
   }
 }
-
-}  // namespace
 
 namespace fusion {
 

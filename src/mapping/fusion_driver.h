@@ -37,6 +37,9 @@ class ReferenceFusion {
 // without it).
 std::unique_ptr<ReferenceFusion> makeCudaReferenceFusion(const FuserResources& resources);
 
+// Throws InputError for views fuseDepthMaps cannot fuse (see fusion.h).
+void checkViews(const std::vector<FusionView>& views, const FusionOptions& options);
+
 FusionResult runFusion(const std::vector<FusionView>& views, const FusionOptions& options,
                        ReferenceFusion* backend);
 

@@ -45,6 +45,12 @@ double selectionScore(const SourceSelection& selection) {
 
 }  // namespace
 
+FusionOptions onlineFusionOptions() {
+  FusionOptions options = FusionOptions::reprojection();
+  options.max_relative_depth_difference = 0.02f;
+  return options;
+}
+
 void appendProblems(const std::string& group, const std::string& problems, std::ostringstream* out) {
   std::istringstream lines(problems);
   for (std::string line; std::getline(lines, line);)
@@ -70,6 +76,7 @@ std::string OnlineMapperOptions::validate() const {
   appendProblems("fusion", fusion.validate(), &out);
   appendProblems("map", map.validate(), &out);
   appendProblems("refinement", refinement.validate(), &out);
+  appendProblems("confidence", confidence.validate(), &out);
   if (fusion.min_consistent_views > kMaxSourceViews)
     out << "fusion: min_consistent_views must be at most " << kMaxSourceViews << " (the most consistency views)\n";
   return out.str();
@@ -265,6 +272,11 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
     start = Clock::now();
     fused.points = fuse(id, fused.consistency_ids);
     result->times.fusion_ms += millisecondsSince(start);
+    if (options_.confidence.enabled) {
+      start = Clock::now();
+      fused.published = publish(id, fused.consistency_ids);
+      result->times.confidence_ms += millisecondsSince(start);
+    }
     if (!fused.points.empty()) {
       start = Clock::now();
       noteEvicted(store_.attachPoints(id, fused.points), result);
@@ -349,11 +361,28 @@ std::vector<int64_t> OnlineMapper::consistencyViews(int64_t id) const {
   return selectSources(store_, id, candidates, options).source_ids;
 }
 
-KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& view_ids) const {
-  // Local fusion ids: the consistency views 0..n-1 (no sources of their own:
-  // they only support), the keyframe n.
+namespace {
+
+// Local fusion ids: the consistency views 0..n-1 (no sources of their own:
+// they only support).
+std::vector<FusionView> consistencyFusionViews(const KeyframeStore& store, const std::vector<int64_t>& view_ids) {
   std::vector<FusionView> views;
-  for (int64_t view : view_ids) views.push_back(fusionView(static_cast<int>(views.size()), store_.entry(view)));
+  for (int64_t view : view_ids) views.push_back(fusionView(static_cast<int>(views.size()), store.entry(view)));
+  return views;
+}
+
+}  // namespace
+
+PublishedDepth OnlineMapper::publish(int64_t id, const std::vector<int64_t>& view_ids) const {
+  const StoredKeyframe& stored = store_.entry(id);
+  if (!hasDepthAndNormals(stored)) return {};
+  const std::vector<FusionView> views = consistencyFusionViews(store_, view_ids);
+  return publishDepth(fusionView(static_cast<int>(views.size()), stored), views, options_.confidence);
+}
+
+KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& view_ids) const {
+  // The keyframe is view n after the consistency views.
+  std::vector<FusionView> views = consistencyFusionViews(store_, view_ids);
   const StoredKeyframe& stored = store_.entry(id);
   if (views.empty() || !hasDepthAndNormals(stored)) return {};
   FusionView reference = fusionView(static_cast<int>(views.size()), stored);

@@ -100,6 +100,11 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "refinement/keep_only_better", &o->refinement.keep_only_better);
   read(nh, "refinement/confident_cost", &o->refinement.confident_cost);
   read(nh, "refinement/max_confident_loss", &o->refinement.max_confident_loss);
+
+  read(nh, "confidence/enabled", &o->confidence.enabled);
+  double min_probability = o->confidence.min_probability;
+  read(nh, "confidence/min_probability", &min_probability);
+  o->confidence.min_probability = static_cast<float>(min_probability);
 }
 
 // Each group of the mapping core checked on its own: a bad group is
@@ -209,6 +214,7 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
   requireValid("fusion", &c.mapper.fusion, defaults.mapper.fusion, &err);
   requireValid("map", &c.mapper.map, defaults.mapper.map, &err);
   requireValid("refinement", &c.mapper.refinement, defaults.mapper.refinement, &err);
+  requireValid("confidence", &c.mapper.confidence, defaults.mapper.confidence, &err);
 
   // Estimator options: every entry of the option table, as ~estimator/<name>.
   for (const amhmvs::OptionInfo& option : amhmvs::patchMatchOptionTable()) {

@@ -89,16 +89,17 @@ void MappingOutputs::publish(const amhmvs::KeyframeResult& result, const Keyfram
     const double frustum_depth = kFrustumDepthFraction * result.selection.scene_depth.depth;
     markers_pub_.publish(keyframeMarkers(cameras, result.id, result.selection.source_ids, frustum_depth, fixed));
   }
-  if (result.has_depth) {
-    if (depth_pub_.getNumSubscribers() > 0)
-      depth_pub_.publish(depthImageMsg(result.depth.depth, header), cameraInfoMsg(result.camera, header));
-    if (depth_mm_pub_.getNumSubscribers() > 0)
-      depth_mm_pub_.publish(depthImageMillimetresMsg(result.depth.depth, header), cameraInfoMsg(result.camera, header));
-    if (confidence_pub_.getNumSubscribers() > 0) confidence_pub_.publish(confidenceImageMsg(result.depth, header));
-    if (preview_pub_.getNumSubscribers() > 0) {
-      sensor_msgs::ImagePtr preview = depthPreviewMsg(result.depth.depth, header);
-      if (preview) preview_pub_.publish(preview);
+  // With the calibrated confidence a depth map is published when its
+  // keyframe is fused (masked; possibly after later keyframes), else at once.
+  if (config_.mapper.confidence.enabled) {
+    for (const amhmvs::FusedKeyframe& fused : result.fused) {
+      std_msgs::Header fused_header;
+      if (fused.published.empty() || !headers.get(fused.id, &fused_header)) continue;
+      publishDepth(fused.published.depth, fused.camera, fused_header,
+                   [&] { return confidenceImageMsg(fused.published, fused_header); });
     }
+  } else if (result.has_depth) {
+    publishDepth(result.depth.depth, result.camera, header, [&] { return confidenceImageMsg(result.depth, header); });
   }
   // keyframe_cloud: each keyframe this result fused (this one, earlier ones
   // that waited for enough consistency views, or a refined one again), with
@@ -107,6 +108,19 @@ void MappingOutputs::publish(const amhmvs::KeyframeResult& result, const Keyfram
   for (const amhmvs::FusedKeyframe& fused : result.fused) {
     std_msgs::Header fused_header;
     if (headers.get(fused.id, &fused_header)) cloud_pub_.publish(cloudMsg(keyframeCloud(fused.points), fused_header));
+  }
+}
+
+void MappingOutputs::publishDepth(const amhmvs::ImageF& depth, const amhmvs::PinholeCamera& camera,
+                                  const std_msgs::Header& header,
+                                  const std::function<sensor_msgs::ImagePtr()>& confidence) {
+  if (depth_pub_.getNumSubscribers() > 0) depth_pub_.publish(depthImageMsg(depth, header), cameraInfoMsg(camera, header));
+  if (depth_mm_pub_.getNumSubscribers() > 0)
+    depth_mm_pub_.publish(depthImageMillimetresMsg(depth, header), cameraInfoMsg(camera, header));
+  if (confidence_pub_.getNumSubscribers() > 0) confidence_pub_.publish(confidence());
+  if (preview_pub_.getNumSubscribers() > 0) {
+    sensor_msgs::ImagePtr preview = depthPreviewMsg(depth, header);
+    if (preview) preview_pub_.publish(preview);
   }
 }
 

@@ -182,6 +182,11 @@ sensor_msgs::ImagePtr confidenceImageMsg(const amhmvs::DepthMap& map, const std_
   return msg;
 }
 
+sensor_msgs::ImagePtr confidenceImageMsg(const amhmvs::PublishedDepth& published, const std_msgs::Header& header) {
+  return depthMsg<float>(published.confidence, header, enc::TYPE_32FC1,
+                         [](float p) { return std::isfinite(p) ? std::clamp(p, 0.0f, 1.0f) : 0.0f; });
+}
+
 sensor_msgs::ImagePtr depthPreviewMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header) {
   std::pair<float, float> range;
   try {

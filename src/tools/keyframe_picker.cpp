@@ -1,6 +1,8 @@
 #include "keyframe_picker.h"
 
+#include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/io/image_io.h"
+#include "amhmvs_mapping/mvs/problem_builder.h"
 
 namespace amhmvs {
 
@@ -19,6 +21,31 @@ PickedKeyframes pickKeyframes(const std::vector<PosedFrame>& frames, const Frame
   }
   picked.stats = picker.stats();
   return picked;
+}
+
+Keyframe makeKeyframe(const PosedFrame& frame, const MapToolOptions& options) {
+  Keyframe keyframe;
+  keyframe.id = frame.id;
+  keyframe.stamp = frame.stamp;
+  keyframe.image = readImage(frame.image_path);
+  keyframe.camera = frame.camera;
+  if (!keyframe.image.sameSize(frame.camera.width, frame.camera.height)) {
+    throw InputError(frame.image_path + ": image is " + std::to_string(keyframe.image.width) + "x" +
+                     std::to_string(keyframe.image.height) + ", its camera " + std::to_string(frame.camera.width) +
+                     "x" + std::to_string(frame.camera.height));
+  }
+  ProblemOptions size;
+  size.max_image_size = options.max_image_size;
+  int width = 0, height = 0;
+  scaledSize(keyframe.image.width, keyframe.image.height, size, &width, &height);
+  if (width != keyframe.image.width || height != keyframe.image.height) {
+    keyframe.image = resizeArea(keyframe.image, width, height);
+    keyframe.camera = keyframe.camera.resized(width, height);
+  }
+  const bool given = options.depth_min > 0;  // the options' range wins over the layout's
+  keyframe.depth_min = given ? options.depth_min : frame.depth_min;
+  keyframe.depth_max = given ? options.depth_max : frame.depth_max;
+  return keyframe;
 }
 
 }  // namespace amhmvs

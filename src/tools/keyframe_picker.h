@@ -1,12 +1,13 @@
 // Which frames of a recorded sequence become keyframes: a window of the
 // sequence (start, stride, count), then the core KeyframePicker (motion,
-// pure rotation, blur).
+// pure rotation, blur); and the keyframe made of a frame.
 #pragma once
 
 #include <vector>
 
 #include "amhmvs_mapping/io/posed_sequence.h"
 #include "amhmvs_mapping/mapping/keyframe_picker.h"
+#include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "map_options.h"
 
 namespace amhmvs {
@@ -19,5 +20,10 @@ struct PickedKeyframes {
 // The keyframes of the window. An image is decoded only for the frames that
 // pass the motion test, and only when blur is refused (its sharpness).
 PickedKeyframes pickKeyframes(const std::vector<PosedFrame>& frames, const FrameSelection& selection);
+
+// The keyframe of a frame: its image decoded and scaled to max_image_size,
+// with the camera scaled alike, and the depth range given by the options or
+// the layout. Throws InputError for an image that does not match its camera.
+Keyframe makeKeyframe(const PosedFrame& frame, const MapToolOptions& options);
 
 }  // namespace amhmvs

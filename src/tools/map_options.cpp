@@ -19,6 +19,27 @@ Eigen::Vector3d parseVector(const std::string& option, const std::string& text) 
   return {values[0], values[1], values[2]};
 }
 
+// A fusion threshold: 0 switches the check off (as in config/mapping.yaml).
+float parseThreshold(const std::string& option, const std::string& text) {
+  const float value = parseValue<float>(option, text);
+  return value == 0 ? FusionOptions::kOff : value;
+}
+
+// The fusion and confidence options, by name; false when `name` is neither.
+bool setFusionOption(const std::string& name, const std::string& value, OnlineMapperOptions* mapper) {
+  FusionOptions& fusion = mapper->fusion;
+  if (name == "fusion_max_reprojection_error") fusion.max_reprojection_error = parseThreshold(name, value);
+  else if (name == "fusion_max_relative_depth_difference")
+    fusion.max_relative_depth_difference = parseThreshold(name, value);
+  else if (name == "fusion_max_normal_angle_deg") fusion.max_normal_angle_deg = parseThreshold(name, value);
+  else if (name == "fusion_max_cost") fusion.max_cost = parseThreshold(name, value);
+  else if (name == "fusion_min_consistent_views") fusion.min_consistent_views = parseValue<int>(name, value);
+  else if (name == "confidence") mapper->confidence.enabled = parseSwitch(name, value);
+  else if (name == "confidence_level") mapper->confidence.min_probability = parseValue<float>(name, value);
+  else return false;
+  return true;
+}
+
 }  // namespace
 
 MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) {
@@ -28,12 +49,16 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
   PosedSequenceOptions& sequence = options.sequence;
   for (size_t i = 0; i < arguments.size(); ++i) {
     std::string name, value;
-    nextOption(arguments, &i, {"quiet", "write_depth", "write_previews", "write_clouds", "skip_to_newest"}, &name,
-               &value);
+    nextOption(arguments, &i,
+               {"quiet", "write_depth", "write_previews", "write_clouds", "write_confidence", "skip_to_newest",
+                "confidence"},
+               &name, &value);
     if (name == "quiet") options.quiet = parseSwitch(name, value);
     else if (name == "write_depth") options.write_depth = parseSwitch(name, value);
     else if (name == "write_previews") options.write_previews = parseSwitch(name, value);
     else if (name == "write_clouds") options.write_clouds = parseSwitch(name, value);
+    else if (name == "write_confidence") options.write_confidence = parseSwitch(name, value);
+    else if (setFusionOption(name, value, &pipeline.mapper)) continue;
     else if (name == "backend") pipeline.backend = parseBackend(value);
     else if (name == "max_image_size") options.max_image_size = parseValue<int>(name, value);
     else if (name == "num_sources") pipeline.mapper.sources.max_sources = parseValue<int>(name, value);
@@ -101,7 +126,8 @@ std::string mapToolUsage() {
          "  TUM RGB-D             rgb.txt, depth.txt, groundtruth.txt (associated by stamp)\n"
          "Ground-truth depth, where the recording has it, is only used for the report.\n\n"
          "Writes OUTPUT_DIR/: depth/NNNNNN.pfm (z-depth in metres at the processed resolution,\n"
-         "NaN invalid), clouds/NNNNNN.ply (each keyframe's fused points, world frame),\n"
+         "NaN invalid or below --confidence_level; written when the keyframe is fused, again when\n"
+         "a refinement is), clouds/NNNNNN.ply (each keyframe's fused points, world frame),\n"
          "previews/NNNNNN.png (colour-mapped depth, with --write_previews), map.ply (the voxel\n"
          "map), keyframes.csv and keyframes.jsonl (one row per result: new, late or refined\n"
          "depth map; sources, depth range, stage times in ms, accuracy vs ground truth) and\n"
@@ -143,11 +169,23 @@ std::string mapToolUsage() {
          "  --depth_min M --depth_max M  depth range of every keyframe (default: from the\n"
          "                       layout (MVSNet, COLMAP), else the neighbours' depth maps)\n"
          "  --voxel_size M       map voxel edge (default 0.02)\n"
+         "  --fusion_max_reprojection_error PX  --fusion_max_relative_depth_difference F\n"
+         "  --fusion_max_normal_angle_deg D  --fusion_max_cost C  --fusion_min_consistent_views N\n"
+         "                       the fusion's checks (mapping/fusion.h; 0 = off; defaults 2, 0.02,\n"
+         "                       10, off, 2: online_mapper.h's onlineFusionOptions)\n"
+         "  --confidence[=0|1]   a calibrated per-pixel confidence from the agreement with the\n"
+         "                       other keyframes' depth maps, computed when a keyframe is fused;\n"
+         "                       its depth is written then, masked (default 1; 0: every depth map\n"
+         "                       written unmasked when estimated)\n"
+         "  --confidence_level P written depth: NaN where the confidence (the probability of\n"
+         "                       being within 5 %) is below P (default 0.97; 0: nothing masked)\n"
          "  --queue_size N       keyframes waiting (default: all offline, 4 with --realtime)\n"
          "  --skip_to_newest[=0|1]  after a queue overflow take the newest keyframe (default 1)\n"
          "Outputs:\n"
          "  --write_depth[=0|1] (default 1)  --write_clouds[=0|1] (default 1)\n"
-         "  --write_previews[=0|1] (default 0)  --quiet (only warnings and the summary line)\n\n"
+         "  --write_previews[=0|1] (default 0)  --quiet (only warnings and the summary line)\n"
+         "  --write_confidence[=0|1] (default 0) confidence/NNNNNN.pfm, each keyframe's confidence\n"
+         "                       (probability in [0, 1]) when it is fused (with --confidence)\n\n"
          "Method options (defaults are the paper's):\n"
       << describe(PatchMatchOptions());
   return out.str();

@@ -31,6 +31,7 @@ struct MapToolOptions {
   bool write_depth = true;
   bool write_previews = false;
   bool write_clouds = true;
+  bool write_confidence = false;  // confidence/NNNNNN.pfm of each fused keyframe (with mapper.confidence)
   size_t writer_queue = 32;   // results waiting for the writer thread
   bool quiet = false;
 };

@@ -29,7 +29,8 @@ const std::vector<std::pair<const char*, double StageTimes::*>>& stageFields() {
       {"queue_wait_ms", &StageTimes::queue_wait_ms}, {"selection_ms", &StageTimes::selection_ms},
       {"depth_range_ms", &StageTimes::depth_range_ms}, {"problem_ms", &StageTimes::problem_ms},
       {"estimate_ms", &StageTimes::estimate_ms},     {"fusion_ms", &StageTimes::fusion_ms},
-      {"map_ms", &StageTimes::map_ms},               {"total_ms", &StageTimes::total_ms}};
+      {"confidence_ms", &StageTimes::confidence_ms}, {"map_ms", &StageTimes::map_ms},
+      {"total_ms", &StageTimes::total_ms}};
   return fields;
 }
 
@@ -215,7 +216,8 @@ MapOutputs::MapOutputs(const std::string& dir, const MapToolOptions& options, co
   for (size_t i = 0; i < sequence.frames.size(); ++i) frame_of_id_[sequence.frames[i].id] = i;
   const std::vector<std::pair<std::string, bool>> folders = {
       {dir, true}, {dir + "/depth", options.write_depth}, {dir + "/clouds", options.write_clouds},
-      {dir + "/previews", options.write_previews}};
+      {dir + "/previews", options.write_previews},
+      {dir + "/confidence", options.write_confidence && options.pipeline.mapper.confidence.enabled}};
   for (const auto& [folder, wanted] : folders) {
     std::error_code error;
     if (wanted) fs::create_directories(folder, error);
@@ -249,20 +251,51 @@ void MapOutputs::add(const PipelineOutput& output) {
   submit_blocked_ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
-void MapOutputs::writeFiles(const KeyframeResult& result) {
-  const std::string name = id6(result.id);
-  if (result.has_depth && options_.write_depth) writePfm(dir_ + "/depth/" + name + ".pfm", result.depth.depth);
-  if (result.has_depth && options_.write_previews) {
+void MapOutputs::writeDepth(int64_t id, const ImageF& depth, const DepthRangeEstimate& range) {
+  const std::string name = id6(id);
+  if (options_.write_depth) writePfm(dir_ + "/depth/" + name + ".pfm", depth);
+  if (options_.write_previews) {
     // No valid depth: the estimate's range.
     writePng(dir_ + "/previews/" + name + ".png",
-             depthPreview(result.depth.depth, static_cast<float>(result.depth_range.min),
-                          static_cast<float>(result.depth_range.max)));
+             depthPreview(depth, static_cast<float>(range.min), static_cast<float>(range.max)));
+  }
+}
+
+void MapOutputs::writeFiles(const KeyframeResult& result) {
+  if (result.has_depth) depth_ranges_[result.id] = result.depth_range;
+  // With the confidence, a depth map is published when its keyframe is fused.
+  if (result.has_depth && !publishesWhenFused()) writeDepth(result.id, result.depth.depth, result.depth_range);
+  for (const FusedKeyframe& fused : result.fused) {
+    if (fused.published.empty()) continue;
+    writeDepth(fused.id, fused.published.depth, depth_ranges_[fused.id]);
+    if (options_.write_confidence)
+      writePfm(dir_ + "/confidence/" + id6(fused.id) + ".pfm", fused.published.confidence);
   }
   if (!options_.write_clouds) return;
   for (const FusedKeyframe& fused : result.fused) {
     writePly(dir_ + "/clouds/" + id6(fused.id) + ".ply",
              keyframeWorldCloud(fused.points, cameraToWorld(fused.camera)));
   }
+}
+
+bool MapOutputs::publishesWhenFused() const { return options_.pipeline.mapper.confidence.enabled; }
+
+std::string MapOutputs::comparePublished(const KeyframeResult& result) {
+  JsonFields list;
+  std::string rows;
+  for (const FusedKeyframe& fused : result.fused) {
+    const auto frame_it = frame_of_id_.find(fused.id);
+    if (fused.published.empty() || frame_it == frame_of_id_.end()) continue;
+    const PosedFrame& frame = sequence_.frames[frame_it->second];
+    if (!frame.ground_truth.present()) continue;
+    const DepthComparison comparison =
+        compareDepth(fused.published.depth, groundTruthDepthIn(frame.ground_truth, fused.camera));
+    published_accuracy_[fused.id] = comparison;
+    JsonFields row = accuracyFields(comparison);
+    row.add("id", std::to_string(fused.id));
+    rows += (rows.empty() ? "" : ", ") + row.object();
+  }
+  return "[" + rows + "]";
 }
 
 bool MapOutputs::compareWithTruth(const KeyframeResult& result, const PosedFrame* frame,
@@ -295,6 +328,7 @@ void MapOutputs::write(const Row& row) {
   JsonFields json;
   for (const Cell& cell : cells) json.add(cell.name, cell.json);
   json.add("accuracy", has_truth ? accuracyFields(comparison).object() : "null");
+  json.add("published_accuracy", comparePublished(result));
   for (const Cell& cell : accuracyCells(has_truth ? &comparison : nullptr)) cells.push_back(cell);
   for (size_t i = 0; i < cells.size(); ++i) std::fprintf(csv_, "%s%s", i ? "," : "", cells[i].csv.c_str());
   std::fprintf(csv_, "\n");
@@ -371,6 +405,26 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
     accuracy.add("depth_maps", std::to_string(accuracy_.size()));
     summary.add("depth_accuracy", accuracy.object());
   }
+  // Published depth: a keyframe never fused published nothing (its truth
+  // pixels count, none covered).
+  DepthComparison published;
+  for (const auto& entry : accuracy_) {
+    const auto found = published_accuracy_.find(entry.first);
+    if (found != published_accuracy_.end()) {
+      published.merge(found->second);
+    } else {
+      published.truth_pixels += entry.second.truth_pixels;
+    }
+  }
+  const bool report_published = publishesWhenFused() && !accuracy_.empty();
+  if (!report_published) {
+    summary.add("published_depth_accuracy", "null");
+  } else {
+    JsonFields accuracy = accuracyFields(published);
+    accuracy.add("depth_maps", std::to_string(published_accuracy_.size()));
+    accuracy.add("confidence_level", number(options_.pipeline.mapper.confidence.min_probability));
+    summary.add("published_depth_accuracy", accuracy.object());
+  }
 
   JsonFields map;
   std::vector<double> map_within_pct;  // per threshold, when there is ground truth
@@ -416,6 +470,12 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   if (!accuracy_.empty()) {
     std::snprintf(text, sizeof(text), "; depth within 1/2/5/10 %%: %s %%, completeness %.1f %%",
                   pooled.accuracy.percentages().c_str(), 100 * pooled.completeness());
+    *line += text;
+  }
+  if (report_published) {
+    std::snprintf(text, sizeof(text), "; published (confidence >= %.2f): %s %%, completeness %.1f %%",
+                  options_.pipeline.mapper.confidence.min_probability, published.accuracy.percentages().c_str(),
+                  100 * published.completeness());
     *line += text;
   }
   std::snprintf(text, sizeof(text), "; map %zu points", map_points.size());

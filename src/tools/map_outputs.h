@@ -49,6 +49,13 @@ class MapOutputs {
   // Writer thread: the files, the comparison, the log rows and progress line of one result.
   void write(const Row& row);
   void writeFiles(const KeyframeResult& result);
+  void writeDepth(int64_t id, const ImageF& depth, const DepthRangeEstimate& range);
+  // True when depth maps are written (published) when their keyframe is
+  // fused, masked by the confidence; false: when estimated, unmasked.
+  bool publishesWhenFused() const;
+  // The published depth maps of the keyframes `result` fused against ground
+  // truth (kept per keyframe); their rows as a JSON list.
+  std::string comparePublished(const KeyframeResult& result);
   // False when the result has no depth map or its frame no ground truth.
   bool compareWithTruth(const KeyframeResult& result, const PosedFrame* frame, DepthComparison* comparison);
   // summary.json's text; `line`: the same in one line of prose.
@@ -64,6 +71,8 @@ class MapOutputs {
   std::FILE* jsonl_ = nullptr;
   std::map<std::string, size_t> kinds_;
   std::map<int64_t, DepthComparison> accuracy_;  // latest depth map of each keyframe
+  std::map<int64_t, DepthComparison> published_accuracy_;  // latest published depth map of each keyframe
+  std::map<int64_t, DepthRangeEstimate> depth_ranges_;  // of each keyframe's latest depth map (previews)
   std::map<int64_t, std::vector<Eigen::Vector3f>> truth_points_;  // ground-truth surface, world
   std::vector<double> total_ms_, estimate_ms_;
   double submit_blocked_ms_ = 0;  // main thread: time add() waited for room in the writer's queue

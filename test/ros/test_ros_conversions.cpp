@@ -187,6 +187,22 @@ TEST(RosConversions, DepthOutputsAndCloud) {
   EXPECT_FLOAT_EQ(values[1], 0.25f);
   EXPECT_FLOAT_EQ(values[3], 0.9f);
 
+  // The calibrated confidence as published (~confidence/enabled): the
+  // probabilities as they are, clamped to [0, 1], NaN as 0.
+  amhmvs::PublishedDepth published;
+  published.confidence = amhmvs::ImageF(4, 3, 1, 0.5f);
+  published.confidence.data[1] = 0.97f;
+  published.confidence.data[2] = NAN;
+  published.confidence.data[3] = 1.5f;
+  const sensor_msgs::ImagePtr calibrated = confidenceImageMsg(published, header);
+  EXPECT_EQ(calibrated->encoding, "32FC1");
+  EXPECT_EQ(calibrated->header.frame_id, "cam");
+  std::memcpy(values, calibrated->data.data(), sizeof(values));
+  EXPECT_FLOAT_EQ(values[0], 0.5f);
+  EXPECT_FLOAT_EQ(values[1], 0.97f);
+  EXPECT_FLOAT_EQ(values[2], 0.0f);
+  EXPECT_FLOAT_EQ(values[3], 1.0f);
+
   const sensor_msgs::ImagePtr preview = depthPreviewMsg(map.depth, header);
   ASSERT_TRUE(preview);
   EXPECT_EQ(preview->encoding, "bgr8");

@@ -91,6 +91,48 @@ TEST(OnlineMapper, FirstKeyframeIsASourceThenDeferredFusionAndMap) {
   EXPECT_EQ(mapper.mapRevision(), 4u);
 }
 
+// With the confidence on (the default) a fused keyframe carries its depth map
+// as published: every exact wall pixel agrees with every consistency view
+// that sees it, so its confidence is the table's (seen, seen) value, and the
+// depth is NaN exactly where that is below the level; off: nothing.
+TEST(OnlineMapper, FusedKeyframesCarryTheirConfidenceAndPublishedDepth) {
+  for (const float level : {0.0f, 0.5f, 1.0f}) {
+    OnlineMapperOptions options = wallOptions();
+    ASSERT_TRUE(options.confidence.enabled);
+    options.confidence.min_probability = level;
+    OnlineMapper mapper(options, wallDepth);
+    size_t published = 0;
+    for (int64_t id = 0; id < 5; ++id) {
+      const KeyframeResult result = mapper.process(keyframeAt(id, 0.5 * id));
+      for (const FusedKeyframe& fused : result.fused) {
+        ASSERT_FALSE(fused.published.empty());
+        ++published;
+        const ImageF& depth = mapper.store().entry(fused.id).depth.depth;
+        const PublishedDepth& p = fused.published;
+        EXPECT_EQ(p.min_probability, level);
+        for (size_t i = 0; i < depth.data.size(); ++i) {
+          const int seen = p.counts.seen.data[i];
+          EXPECT_EQ(p.counts.agreeing.data[i], seen) << i;
+          EXPECT_EQ(p.confidence.data[i], defaultConfidenceCalibration().lookup(seen, seen, 0.1f)) << i;
+          if (p.confidence.data[i] < level) {
+            EXPECT_TRUE(std::isnan(p.depth.data[i])) << i;
+          } else {
+            EXPECT_EQ(p.depth.data[i], depth.data[i]) << i;
+          }
+        }
+      }
+    }
+    EXPECT_EQ(published, 4u);  // keyframes 1-4 (0 waits for its late depth map)
+  }
+  OnlineMapperOptions off = wallOptions();
+  off.confidence.enabled = false;
+  OnlineMapper mapper(off, wallDepth);
+  for (int64_t id = 0; id < 5; ++id) {
+    for (const FusedKeyframe& fused : mapper.process(keyframeAt(id, 0.5 * id)).fused)
+      EXPECT_TRUE(fused.published.empty());
+  }
+}
+
 TEST(OnlineMapper, KeyframeWithoutSourceGetsItsDepthMapOnceALaterKeyframeQualifies) {
   int calls = 0;
   OnlineMapper mapper(wallOptions(), [&](const DepthProblem& problem) {

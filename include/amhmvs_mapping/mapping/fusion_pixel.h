@@ -75,8 +75,8 @@ struct ViewData {
     const Vec3d camera_point{(x - cx) / fx * d, (y - cy) / fy * d, d};
     return mul(Rt, camera_point - t);
   }
-  AMHMVS_HD Vec3d colorAt(int x, int y) const {
-    const int i = pixelIndex(x, y);
+  AMHMVS_HD Vec3d colorAt(int x, int y) const { return colorOfPixel(pixelIndex(x, y)); }
+  AMHMVS_HD Vec3d colorOfPixel(int i) const {
     if (color_channels == 1) return {double(color[i]), double(color[i]), double(color[i])};
     return {double(color[3 * i]), double(color[3 * i + 1]), double(color[3 * i + 2])};
   }
@@ -119,6 +119,53 @@ AMHMVS_HD uint8_t toByte(double value) {
   return static_cast<uint8_t>(rounded < 0 ? 0 : (rounded > 255 ? 255 : rounded));
 }
 
+// What one source view says about the reference pixel's world point X
+// (depth `depth`, world normal `normal` at reference pixel (x, y)).
+enum class SourceVerdict {
+  kNotSeen,    // X is behind the source, outside its image, or on a pixel fused before (skip_used)
+  kDisagrees,  // seen, but no usable estimate there or an enabled check fails
+  kAgrees      // every enabled check passes
+};
+
+// The source's estimate where it sees X (filled when it agrees).
+struct SourceSample {
+  int pixel;      // index in the source
+  Vec3d point;    // world point of that pixel at its depth (X_j)
+  Vec3d normal;   // its world normal
+};
+
+// The per-view test of the consistency check (fusion.h): fusion counts and
+// averages the agreeing views; the per-pixel confidence counts them.
+AMHMVS_HD SourceVerdict checkSource(const ViewData& ref, const Checks& checks, int x, int y, double depth,
+                                    Vec3d normal, Vec3d X, const ViewData& src, SourceSample* sample) {
+  const Vec3d Xs = mul(src.R, X) + src.t;
+  int sx, sy;
+  if (!src.nearestPixel(Xs, &sx, &sy)) return SourceVerdict::kNotSeen;
+  const int src_pixel = src.pixelIndex(sx, sy);
+  // A pixel already fused elsewhere neither supports nor counts as checked.
+  if (checks.skip_used && src.used && src.used[src_pixel]) return SourceVerdict::kNotSeen;
+  double src_depth;
+  Vec3d src_normal;
+  if (!src.pixel(sx, sy, checks.max_cost, &src_depth, &src_normal)) return SourceVerdict::kDisagrees;
+  if (dot(normal, src_normal) <= checks.cos_max_normal_angle) return SourceVerdict::kDisagrees;
+  if (finite(checks.max_disparity_difference)) {
+    // Fusibile: disparity = f_ref * baseline / depth, both depths in the source.
+    const double fb = ref.fx * norm(ref.center - src.center);
+    if (!(fabs(fb / Xs.z - fb / src_depth) < checks.max_disparity_difference)) return SourceVerdict::kDisagrees;
+  }
+  const Vec3d Xj = src.worldPoint(sx, sy, src_depth);
+  if (finite(checks.max_reprojection_error) || finite(checks.max_relative_depth_difference)) {
+    const Vec3d Xj_ref = mul(ref.R, Xj) + ref.t;
+    if (!(Xj_ref.z > 0)) return SourceVerdict::kDisagrees;
+    if (!(fabs(Xj_ref.z - depth) / depth < checks.max_relative_depth_difference)) return SourceVerdict::kDisagrees;
+    const double du = ref.fx * Xj_ref.x / Xj_ref.z + ref.cx - x;
+    const double dv = ref.fy * Xj_ref.y / Xj_ref.z + ref.cy - y;
+    if (!(sqrt(du * du + dv * dv) < checks.max_reprojection_error)) return SourceVerdict::kDisagrees;
+  }
+  *sample = SourceSample{src_pixel, Xj, src_normal};
+  return SourceVerdict::kAgrees;
+}
+
 // Fuses reference pixel (x, y) of `ref` against `sources[0..source_count)`.
 // True when at least min_consistent_views sources agree: `out` holds the mean
 // of the reference's point and the agreeing sources' points (position, unit
@@ -130,8 +177,6 @@ AMHMVS_HD bool fusePixel(const ViewData& ref, const ViewData* sources, int sourc
   Vec3d normal;
   if (!ref.pixel(x, y, checks.max_cost, &depth, &normal)) return false;
   const Vec3d X = ref.worldPoint(x, y, depth);
-  const bool reproject = finite(checks.max_reprojection_error) ||
-                         finite(checks.max_relative_depth_difference);
 
   Vec3d sum_position = X, sum_normal = normal, sum_color{0, 0, 0};
   int colored = 0;
@@ -143,39 +188,19 @@ AMHMVS_HD bool fusePixel(const ViewData& ref, const ViewData* sources, int sourc
   for (int k = 0; k < source_count; ++k) {
     if (support) support[k] = -1;
     const ViewData& src = sources[k];
-    const Vec3d Xs = mul(src.R, X) + src.t;
-    int sx, sy;
-    if (!src.nearestPixel(Xs, &sx, &sy)) continue;
-    const int src_pixel = src.pixelIndex(sx, sy);
-    // A pixel already fused elsewhere neither supports nor counts as checked.
-    if (checks.skip_used && src.used && src.used[src_pixel]) continue;
+    SourceSample sample;
+    const SourceVerdict verdict = checkSource(ref, checks, x, y, depth, normal, X, src, &sample);
+    if (verdict == SourceVerdict::kNotSeen) continue;
     ++visible;
-    double src_depth;
-    Vec3d src_normal;
-    if (!src.pixel(sx, sy, checks.max_cost, &src_depth, &src_normal)) continue;
-    if (dot(normal, src_normal) <= checks.cos_max_normal_angle) continue;
-    if (finite(checks.max_disparity_difference)) {
-      // Fusibile: disparity = f_ref * baseline / depth, both depths in the source.
-      const double fb = ref.fx * norm(ref.center - src.center);
-      if (!(fabs(fb / Xs.z - fb / src_depth) < checks.max_disparity_difference)) continue;
-    }
-    const Vec3d Xj = src.worldPoint(sx, sy, src_depth);
-    if (reproject) {
-      const Vec3d Xj_ref = mul(ref.R, Xj) + ref.t;
-      if (!(Xj_ref.z > 0)) continue;
-      if (!(fabs(Xj_ref.z - depth) / depth < checks.max_relative_depth_difference)) continue;
-      const double du = ref.fx * Xj_ref.x / Xj_ref.z + ref.cx - x;
-      const double dv = ref.fy * Xj_ref.y / Xj_ref.z + ref.cy - y;
-      if (!(sqrt(du * du + dv * dv) < checks.max_reprojection_error)) continue;
-    }
-    sum_position = sum_position + Xj;
-    sum_normal = sum_normal + src_normal;
+    if (verdict != SourceVerdict::kAgrees) continue;
+    sum_position = sum_position + sample.point;
+    sum_normal = sum_normal + sample.normal;
     if (src.color) {
-      sum_color = sum_color + src.colorAt(sx, sy);
+      sum_color = sum_color + src.colorOfPixel(sample.pixel);
       ++colored;
     }
     ++consistent;
-    if (support) support[k] = src_pixel;
+    if (support) support[k] = sample.pixel;
   }
   if (consistent < checks.min_consistent_views) return false;
   const Vec3d position = mul(ref.R, sum_position / (consistent + 1)) + ref.t;
@@ -190,6 +215,27 @@ AMHMVS_HD bool fusePixel(const ViewData& ref, const ViewData* sources, int sourc
                     visible ? float(consistent) / visible : 0.0f,
                     static_cast<uint16_t>(consistent),
                     {toByte(color.x), toByte(color.y), toByte(color.z)}};
+  return true;
+}
+
+// The views that see reference pixel (x, y)'s point and those that agree
+// with it (checkSource); false (counts untouched) where the pixel has no
+// usable estimate.
+AMHMVS_HD bool countAgreement(const ViewData& ref, const ViewData* sources, int source_count, const Checks& checks,
+                              int x, int y, int* seen, int* agreeing) {
+  double depth;
+  Vec3d normal;
+  if (!ref.pixel(x, y, checks.max_cost, &depth, &normal)) return false;
+  const Vec3d X = ref.worldPoint(x, y, depth);
+  int seen_count = 0, agreeing_count = 0;
+  for (int k = 0; k < source_count; ++k) {
+    SourceSample sample;
+    const SourceVerdict verdict = checkSource(ref, checks, x, y, depth, normal, X, sources[k], &sample);
+    seen_count += verdict != SourceVerdict::kNotSeen;
+    agreeing_count += verdict == SourceVerdict::kAgrees;
+  }
+  *seen = seen_count;
+  *agreeing = agreeing_count;
   return true;
 }
 

@@ -4,6 +4,9 @@
 //     with ~publish_depth_mm,
 //   confidence/image, depth/preview (bgr8): per depth map, with the
 //     keyframe's own stamp and optical frame (late and refined maps too);
+//     with ~confidence/enabled (default) when the keyframe is fused, the
+//     depth NaN where the calibrated confidence is below
+//     ~confidence/min_probability;
 //   keyframe_cloud: a keyframe's fused points (its optical frame), when it is
 //     fused (again, after a refinement);
 //   map: the global voxel map in the fixed frame, latched, published when it
@@ -73,6 +76,10 @@ class MappingOutputs {
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> view_broadcaster_;
   std::atomic<bool> view_published_{false};
   void publishViewFrame(const amhmvs::KeyframeResult& result, const ros::Time& stamp);
+  // depth/image, depth_mm/image, confidence/image (made only when
+  // subscribed) and depth/preview of one depth map.
+  void publishDepth(const amhmvs::ImageF& depth, const amhmvs::PinholeCamera& camera, const std_msgs::Header& header,
+                    const std::function<sensor_msgs::ImagePtr()>& confidence);
   uint64_t map_publications_ = 0;
 };
 

@@ -17,6 +17,7 @@
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
 #include "amhmvs_mapping/io/point_cloud_io.h"
+#include "amhmvs_mapping/mapping/depth_confidence.h"
 #include "amhmvs_mapping/mapping/keyframe_point.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 
@@ -52,8 +53,12 @@ sensor_msgs::ImagePtr depthImageMsg(const amhmvs::ImageF& depth, const std_msgs:
 sensor_msgs::ImagePtr depthImageMillimetresMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header);
 // CameraInfo of the (possibly downscaled) camera: K, P, no distortion.
 sensor_msgs::CameraInfoPtr cameraInfoMsg(const amhmvs::PinholeCamera& camera, const std_msgs::Header& header);
-// 32FC1 confidence in [0, 1]: 1 - cost / 2 where the depth is valid, else 0.
+// 32FC1 confidence in [0, 1]: 1 - cost / 2 where the depth is valid, else 0
+// (without the calibrated confidence, ~confidence/enabled false).
 sensor_msgs::ImagePtr confidenceImageMsg(const amhmvs::DepthMap& map, const std_msgs::Header& header);
+// 32FC1 calibrated confidence (depth_confidence.h): the probability that the
+// depth is within 5 %, in [0, 1], 0 where the depth map has no estimate.
+sensor_msgs::ImagePtr confidenceImageMsg(const amhmvs::PublishedDepth& published, const std_msgs::Header& header);
 // bgr8 viridis colour map of the depth over its robust (2 %..98 %) range;
 // null when the depth has no finite pixel.
 sensor_msgs::ImagePtr depthPreviewMsg(const amhmvs::ImageF& depth, const std_msgs::Header& header);

@@ -1,0 +1,98 @@
+#include "amhmvs_mapping/mapping/depth_confidence.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "amhmvs_mapping/core/error.h"
+#include "fusion_driver.h"
+
+namespace amhmvs {
+
+std::string ConfidenceOptions::validate() const {
+  std::ostringstream why;
+  if (!(min_probability >= 0 && min_probability <= 1))
+    why << "min_probability must be in [0, 1] (got " << min_probability << ")\n";
+  return why.str();
+}
+
+namespace {
+
+fusion::ViewData viewData(const FusionView& view) {
+  return fusion::viewData(view, view.depth.data, view.normal.data, view.cost.data, view.color.data, nullptr);
+}
+
+bool hasDepth(float depth) { return std::isfinite(depth) && depth > 0; }
+
+}  // namespace
+
+AgreementCounts countAgreement(const FusionView& reference, const std::vector<FusionView>& views,
+                               const FusionOptions& checks) {
+  // Validated as fusion would read them: the reference with the others as sources.
+  std::vector<FusionView> all = views;
+  for (FusionView& view : all) view.source_ids.clear();
+  FusionView ref = reference;
+  ref.source_ids.clear();
+  for (const FusionView& view : views) ref.source_ids.push_back(view.id);
+  all.push_back(ref);
+  fusion::checkViews(all, checks);
+
+  fusion::Checks pixel_checks = fusion::checks(checks);
+  pixel_checks.skip_used = false;  // every view counts, whatever was fused before
+  const fusion::ViewData ref_data = viewData(reference);
+  std::vector<fusion::ViewData> sources;
+  for (const FusionView& view : views) sources.push_back(viewData(view));
+  const int width = reference.camera.width, height = reference.camera.height;
+  AgreementCounts counts{ImageU8(width, height), ImageU8(width, height)};
+  const int count = static_cast<int>(sources.size());
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      int seen = 0, agreeing = 0;
+      if (!fusion::countAgreement(ref_data, sources.data(), count, pixel_checks, x, y, &seen, &agreeing)) continue;
+      counts.seen.at(x, y) = static_cast<uint8_t>(std::min(seen, 255));
+      counts.agreeing.at(x, y) = static_cast<uint8_t>(std::min(agreeing, 255));
+    }
+  }
+  return counts;
+}
+
+ImageF calibratedConfidence(const AgreementCounts& counts, const ImageViewF& depth, const ImageViewF& cost,
+                            const ConfidenceCalibration& calibration) {
+  const int width = depth.width, height = depth.height;
+  if (!counts.seen.sameSize(width, height) || !counts.agreeing.sameSize(width, height) ||
+      (!cost.empty() && !cost.sameSize(width, height))) {
+    throw InputError("confidence: agreement counts, depth and cost maps differ in size");
+  }
+  ImageF confidence(width, height, 1, 0.0f);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      if (!hasDepth(depth.at(x, y))) continue;
+      const float pixel_cost = cost.empty() ? 0.0f : cost.at(x, y);
+      confidence.at(x, y) = calibration.lookup(counts.seen.at(x, y), counts.agreeing.at(x, y), pixel_cost);
+    }
+  }
+  return confidence;
+}
+
+ImageF maskDepth(const ImageViewF& depth, const ImageViewF& confidence, float min_probability) {
+  if (!confidence.sameSize(depth.width, depth.height)) throw InputError("confidence: depth and confidence differ in size");
+  ImageF masked(depth.width, depth.height, 1, std::numeric_limits<float>::quiet_NaN());
+  for (size_t i = 0; i < depth.pixelCount(); ++i) {
+    if (confidence.data[i] >= min_probability) masked.data[i] = depth.data[i];
+  }
+  return masked;
+}
+
+PublishedDepth publishDepth(const FusionView& reference, const std::vector<FusionView>& views,
+                            const ConfidenceOptions& options, const ConfidenceCalibration& calibration) {
+  PublishedDepth published;
+  published.counts = countAgreement(reference, views, calibration.checks);
+  published.confidence = calibratedConfidence(published.counts, reference.depth, reference.cost, calibration);
+  published.depth = maskDepth(reference.depth, published.confidence, options.min_probability);
+  published.min_probability = options.min_probability;
+  return published;
+}
+
+}  // namespace amhmvs
