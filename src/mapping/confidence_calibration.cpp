@@ -98,8 +98,8 @@ namespace {
 // Fitted on a realism-mode room (12 views at 320x240, seed 2, the default
 // profile with the pose error of a good tracker, about 1 px: the agreement
 // means nothing at the default profile's 2.6 px, see the README) by
-//   amhmvs_synthetic room12 --scene room --views 12 --seed 2 --realism default \
-//     --pose_noise_m 0.004 --pose_noise_deg 0.12 --pose_drift_m 0.002 --pose_drift_deg 0.04
+//   amhmvs_synthetic room12 --scene room --views 12 --seed 2 --realism default
+//     (continued) --pose_noise_m 0.004 --pose_noise_deg 0.12 --pose_drift_m 0.002 --pose_drift_deg 0.04
 //   amhmvs_map_study room12 OUT --backend cpu --max_image_size 320 --num_sources 4
 // which writes these lines to OUT/calibration_fit.txt (the probability per
 // cost bin, and how many pixels each cell had; cells without any are 0.5).

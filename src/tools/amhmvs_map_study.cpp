@@ -335,7 +335,7 @@ int run(const std::vector<std::string>& args) {
   const MapToolOptions base = parseMapToolArguments(study.base);
   const PosedSequence sequence = readPosedSequence(sequence_dir, base.sequence);
   std::vector<Keyframe> keyframes;
-  for (size_t index : pickKeyframes(sequence.frames, base.frames)) keyframes.push_back(makeKeyframe(sequence.frames[index], base));
+  for (size_t index : pickKeyframes(sequence.frames, base.frames).indices) keyframes.push_back(makeKeyframe(sequence.frames[index], base));
   if (keyframes.empty()) throw InputError(sequence_dir + ": no frame selected");
   std::error_code error;
   fs::create_directories(out_dir, error);
