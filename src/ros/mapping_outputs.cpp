@@ -57,7 +57,7 @@ MappingOutputs::MappingOutputs(ros::NodeHandle& nh, const MappingConfig& config,
 void MappingOutputs::publishViewFrame(const amhmvs::KeyframeResult& result, const ros::Time& stamp) {
   Eigen::Vector3d anchor;
   if (!view_broadcaster_ || view_published_ || !result.has_depth ||
-      !amhmvs::viewAnchor(result.camera, result.depth.depth, &anchor))
+      !amhmvs::viewAnchor(result.camera, result.depth->depth, &anchor))
     return;
   geometry_msgs::TransformStamped view;
   view.header.stamp = stamp;
@@ -91,12 +91,12 @@ void MappingOutputs::publish(const amhmvs::KeyframeResult& result, const Keyfram
   }
   if (result.has_depth) {
     if (depth_pub_.getNumSubscribers() > 0)
-      depth_pub_.publish(depthImageMsg(result.depth.depth, header), cameraInfoMsg(result.camera, header));
+      depth_pub_.publish(depthImageMsg(result.depth->depth, header), cameraInfoMsg(result.camera, header));
     if (depth_mm_pub_.getNumSubscribers() > 0)
-      depth_mm_pub_.publish(depthImageMillimetresMsg(result.depth.depth, header), cameraInfoMsg(result.camera, header));
+      depth_mm_pub_.publish(depthImageMillimetresMsg(result.depth->depth, header), cameraInfoMsg(result.camera, header));
     if (confidence_pub_.getNumSubscribers() > 0) confidence_pub_.publish(confidenceImageMsg(result.depth, header));
     if (preview_pub_.getNumSubscribers() > 0) {
-      sensor_msgs::ImagePtr preview = depthPreviewMsg(result.depth.depth, header);
+      sensor_msgs::ImagePtr preview = depthPreviewMsg(result.depth->depth, header);
       if (preview) preview_pub_.publish(preview);
     }
   }
