@@ -181,9 +181,11 @@ class CudaReferenceFusion : public ReferenceFusion {
     start = Clock::now();
     if (points->empty()) {
       // The usual case (the mapper's one reference): into a vector made
-      // while the GPU worked; the next one is sized for a little more than
-      // this map emitted, so that its unused tail stays small.
-      *points = prepared_.take(emitted, std::min(pixels, emitted + emitted / 4 + 1024));
+      // while the GPU worked. The next one is sized for 1/8 more than this
+      // map emitted: its unused tail stays with the kept points (more
+      // headroom cost host memory in the 10,000-keyframe replay), and a map
+      // that emits more than that takes the slower path once.
+      *points = prepared_.take(emitted, std::min(pixels, emitted + emitted / 8 + 256));
       convertPoints(host_points_.get(), emitted, points->data());
     } else {
       appendPoints(host_points_.get(), emitted, points);
