@@ -102,7 +102,8 @@ class CudaReferenceFusion : public ReferenceFusion {
     maps_.assign(views.size(), nullptr);
     const uint64_t device_copies = stats_.device_copies;
     for (size_t i = 0; i < views.size(); ++i) maps_[i] = place(*views[i]);
-    // The estimator may overwrite its outputs as soon as this call returns.
+    // The device copies read the estimator's outputs, which its next
+    // estimate overwrites; a call without a reference would not wait later.
     if (stats_.device_copies != device_copies) stream_.synchronize();
     marking_ = options.fuse_each_pixel_once;
     if (!marking_) return;
