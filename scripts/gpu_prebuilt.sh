@@ -24,10 +24,11 @@ stage() {
   export PATH=/usr/bin:/bin:/usr/sbin:/sbin:/usr/local/cuda/bin:$PATH
   local programs="amhmvs_benchmark amhmvs_depth amhmvs_gpu_tests amhmvs_synthetic"
   build() {  # source dir, build dir
+    mkdir -p "$2"
     cmake -S "$1" -B "$2" -DAMHMVS_CORE_ONLY=ON -DAMHMVS_CORE_WITHOUT_OPENCV=ON -DCMAKE_BUILD_TYPE=Release \
-      -DAMHMVS_CUDA_ARCHITECTURES=90 -DCMAKE_CXX_COMPILER_LAUNCHER=ccache > "$2.configure.log" 2>&1 &&
-      cmake --build "$2" -j "$(nproc)" --target $programs > "$2.build.log" 2>&1 ||
-      { tail -20 "$2.build.log"; return 1; }
+      -DAMHMVS_CUDA_ARCHITECTURES=90 -DCMAKE_CXX_COMPILER_LAUNCHER=ccache > "$2/configure.log" 2>&1 &&
+      cmake --build "$2" -j "$(nproc)" --target $programs > "$2/build.log" 2>&1 ||
+      { tail -20 "$2/build.log"; return 1; }
   }
   rm -rf "$stage_dir" && mkdir -p "$stage_dir/lib"
   build "$here" "$here/build-gpu-new" || exit 1
