@@ -32,6 +32,7 @@ message(STATUS "amhmvs: CUDA backend ${AMHMVS_HAVE_CUDA} (architectures: ${AMHMV
 
 set(AMHMVS_CORE_SOURCES
   src/core/camera.cpp
+  src/core/fresh_memory.cpp
   src/core/image.cpp
   src/core/synthetic_scene.cpp
   src/core/realism_options.cpp

@@ -219,12 +219,15 @@ class CudaState {
   WorkBuffers work;
   cuda::PinnedBuffer<uint8_t> source_staging, reference_staging;
   cuda::CudaEvent start, uploaded, stop;
+  DeviceDepthMap last_outputs;  // work.depth / normal / cost of the last estimate
 };
 
 CudaState* createCudaState(const EstimatorResources& resources) { return new CudaState(resources); }
 void destroyCudaState(CudaState* state) { delete state; }
 void forgetOnCuda(CudaState& state, int64_t key) { state.pool.forget(key); }
 void forgetAllOnCuda(CudaState& state) { state.pool.forgetAll(); }
+
+DeviceDepthMap cudaLastOutputs(const CudaState& state) { return state.last_outputs; }
 
 DeviceCacheStats cudaCacheStats(const CudaState& state) {
   DeviceCacheStats stats = state.pool.stats();
@@ -270,6 +273,7 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
   const size_t pixels = static_cast<size_t>(width) * height;
   WorkBuffers& work = state.work;
   DepthMap out;
+  state.last_outputs = DeviceDepthMap();  // overwritten from here on
   try {
     state.start.record(stream);
     work.reserve(pixels);
@@ -324,6 +328,14 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
     state.pool.forgetAll();
     throw;
   }
+  state.last_outputs.host_depth = out.depth.data.data();
+  state.last_outputs.host_normal = out.normal.data.data();
+  state.last_outputs.host_cost = out.cost.data.data();
+  state.last_outputs.depth = work.depth.get();
+  state.last_outputs.normal = work.normal.get();
+  state.last_outputs.cost = work.cost.get();
+  state.last_outputs.width = width;
+  state.last_outputs.height = height;
   out.milliseconds = state.stop.millisecondsSince(state.start);
   out.compute_milliseconds = state.stop.millisecondsSince(state.uploaded);
   const DeviceCacheStats stats = cudaCacheStats(state);

@@ -6,10 +6,14 @@
 
 #include <cub/device/device_select.cuh>
 
+#include <algorithm>
+#include <chrono>
 #include <map>
 #include <vector>
 
 #include "../src/mapping/fusion_driver.h"
+#include "amhmvs_mapping/core/prepared_vector.h"
+#include "amhmvs_mapping/core/stopwatch.h"
 #include "cuda_check.h"
 
 namespace amhmvs {
@@ -17,6 +21,7 @@ namespace fusion {
 namespace {
 
 constexpr int kBlock = 16;
+using Clock = std::chrono::steady_clock;
 
 __global__ void fuseKernel(ViewData ref, const ViewData* sources, int source_count, Checks checks,
                            FusedPoint* points, uint8_t* emitted, int* support,
@@ -64,12 +69,22 @@ struct DeviceMaps {
   size_t bytes() const { return depth.bytes() + normal.bytes() + cost.bytes() + color.bytes(); }
 };
 
+// Spare buffer sets kept for the next maps (a forgotten or evicted map's):
+// no cudaMalloc / cudaFree (which waits for the whole device) per keyframe.
+constexpr size_t kMaxSpareMaps = 2;
+
+// `image` into `buffer` (reused when large enough), from the host or, when
+// `device` is set, from that device copy of the same pixels.
 template <typename T>
-void uploadImage(const ImageView<T>& image, cuda::DeviceBuffer<T>* buffer, cudaStream_t stream) {
+void copyImage(const ImageView<T>& image, const T* device, cuda::DeviceBuffer<T>* buffer, cudaStream_t stream) {
   if (image.empty()) return;
   const size_t count = image.pixelCount() * image.channels;
-  *buffer = cuda::DeviceBuffer<T>(count);
-  buffer->uploadAsync(image.data, count, stream);
+  buffer->reserve(count);
+  if (device) {
+    AMHMVS_CUDA_CHECK(cudaMemcpyAsync(buffer->get(), device, count * sizeof(T), cudaMemcpyDeviceToDevice, stream));
+  } else {
+    buffer->uploadAsync(image.data, count, stream);
+  }
 }
 
 class CudaReferenceFusion : public ReferenceFusion {
@@ -77,13 +92,19 @@ class CudaReferenceFusion : public ReferenceFusion {
   explicit CudaReferenceFusion(const FuserResources& resources) : resources_(resources) {}
 
   void begin(const std::vector<const FusionView*>& views, const FusionOptions& options) override {
+    const Clock::time_point start = Clock::now();
     ++call_;
     views_ = views;
     checks_ = checks(options);
+    for (DeviceMaps& maps : scratch_) release(std::move(maps));
     scratch_.clear();
     scratch_.reserve(views.size());  // place() keeps pointers into it
     maps_.assign(views.size(), nullptr);
+    const uint64_t device_copies = stats_.device_copies;
     for (size_t i = 0; i < views.size(); ++i) maps_[i] = place(*views[i]);
+    // The device copies read the estimator's outputs, which its next
+    // estimate overwrites; a call without a reference would not wait later.
+    if (stats_.device_copies != device_copies) stream_.synchronize();
     marking_ = options.fuse_each_pixel_once;
     if (!marking_) return;
     if (used_.size() < views.size()) used_.resize(views.size());
@@ -91,9 +112,12 @@ class CudaReferenceFusion : public ReferenceFusion {
       used_[i].reserve(views[i]->depth.pixelCount());
       AMHMVS_CUDA_CHECK(cudaMemsetAsync(used_[i].get(), 0, used_[i].bytes(), stream_.get()));
     }
+    times_.place_ms += millisecondsSince(start);
   }
 
   size_t fuseReference(int reference, const std::vector<int>& sources, KeyframePoints* points) override {
+    Clock::time_point start = Clock::now();
+    ++times_.references;
     const cudaStream_t stream = stream_.get();
     const ViewData ref = data(reference);
     const int count = static_cast<int>(sources.size());
@@ -146,14 +170,32 @@ class CudaReferenceFusion : public ReferenceFusion {
     candidates_.downloadAsync(&candidates, 1, stream);
     selected_.downloadAsync(&selected_count, 1, stream);
     AMHMVS_CUDA_CHECK(cudaStreamSynchronize(stream));
+    times_.check_ms += millisecondsSince(start);
+    start = Clock::now();
     const size_t emitted = static_cast<size_t>(selected_count);
-    host_points_.reserve(std::max<size_t>(emitted, 1));
+    // Room for every pixel: pinned memory is slow to allocate (milliseconds),
+    // so it never grows again for maps of this size.
+    host_points_.reserve(pixels);
     compact_.downloadAsync(host_points_.get(), emitted, stream);
     AMHMVS_CUDA_CHECK(cudaStreamSynchronize(stream));
-    points->reserve(points->size() + emitted);
-    for (size_t i = 0; i < emitted; ++i) points->push_back(toKeyframePoint(host_points_.get()[i]));
+    times_.download_ms += millisecondsSince(start);
+    start = Clock::now();
+    if (points->empty()) {
+      // The usual case (the mapper's one reference): into a vector made
+      // while the GPU worked. The next one is sized for 1/8 more than this
+      // map emitted: its unused tail stays with the kept points (more
+      // headroom cost host memory in the 10,000-keyframe replay), and a map
+      // that emits more than that takes the slower path once.
+      *points = prepared_.take(emitted, std::min(pixels, emitted + emitted / 8 + 256));
+      convertPoints(host_points_.get(), emitted, points->data());
+    } else {
+      appendPoints(host_points_.get(), emitted, points);
+    }
+    times_.convert_ms += millisecondsSince(start);
     return static_cast<size_t>(candidates);
   }
+
+  FuserTimes times() const override { return times_; }
 
   FuserCacheStats cacheStats() const override {
     FuserCacheStats stats = stats_;
@@ -165,6 +207,7 @@ class CudaReferenceFusion : public ReferenceFusion {
     const auto found = resident_.find(key);
     if (found == resident_.end()) return;
     resident_bytes_ -= found->second.bytes();
+    release(std::move(found->second));
     resident_.erase(found);
     ++stats_.forgotten;
   }
@@ -175,6 +218,8 @@ class CudaReferenceFusion : public ReferenceFusion {
     resident_bytes_ = 0;
   }
 
+  void setDeviceSource(const DeviceDepthMap& map) override { device_source_ = map; }
+
  private:
   ViewData data(int index) const {
     const DeviceMaps& m = *maps_[index];
@@ -182,16 +227,46 @@ class CudaReferenceFusion : public ReferenceFusion {
                     marking_ ? used_[index].get() : nullptr);
   }
 
+  // Whether `view` borrows the images of the device source (the estimator's
+  // last outputs): then they are copied on the device.
+  bool onDevice(const FusionView& view) const {
+    const DeviceDepthMap& source = device_source_;
+    return !source.empty() && view.depth.width == source.width && view.depth.height == source.height &&
+           view.depth.data == source.host_depth && view.normal.data == source.host_normal &&
+           (view.cost.empty() || view.cost.data == source.host_cost);
+  }
+
   DeviceMaps upload(const FusionView& view) {
-    DeviceMaps maps;
+    DeviceMaps maps = acquire();
     const cudaStream_t stream = stream_.get();
-    uploadImage(view.depth, &maps.depth, stream);
-    uploadImage(view.normal, &maps.normal, stream);
-    uploadImage(view.cost, &maps.cost, stream);
-    uploadImage(view.color, &maps.color, stream);
+    const bool on_device = onDevice(view);
+    copyImage(view.depth, on_device ? device_source_.depth : nullptr, &maps.depth, stream);
+    copyImage(view.normal, on_device ? device_source_.normal : nullptr, &maps.normal, stream);
+    copyImage(view.cost, on_device ? device_source_.cost : nullptr, &maps.cost, stream);
+    copyImage<uint8_t>(view.color, nullptr, &maps.color, stream);
     maps.last_call = call_;
     ++stats_.uploads;
+    stats_.device_copies += on_device;
     return maps;
+  }
+
+  // A spare buffer set (the largest first: it fits most maps), else empty
+  // buffers that copyImage allocates.
+  DeviceMaps acquire() {
+    if (spare_.empty()) return DeviceMaps();
+    const auto largest = std::max_element(spare_.begin(), spare_.end(), [](const DeviceMaps& a, const DeviceMaps& b) {
+      return a.bytes() < b.bytes();
+    });
+    DeviceMaps maps = std::move(*largest);
+    spare_.erase(largest);
+    return maps;
+  }
+
+  // Keeps the buffers of a map that left for the next one (at most
+  // kMaxSpareMaps sets besides the budget's resident maps); frees the rest.
+  // Queued copies into them are ordered before any later use on this stream.
+  void release(DeviceMaps maps) {
+    if (spare_.size() < kMaxSpareMaps) spare_.push_back(std::move(maps));
   }
 
   // The device maps of a view: resident under its key, or scratch.
@@ -224,6 +299,7 @@ class CudaReferenceFusion : public ReferenceFusion {
       }
       if (oldest == resident_.end()) return;  // all in use: over budget for this call
       resident_bytes_ -= oldest->second.bytes();
+      release(std::move(oldest->second));
       resident_.erase(oldest);
       ++stats_.evictions;
     }
@@ -237,6 +313,8 @@ class CudaReferenceFusion : public ReferenceFusion {
   std::map<int64_t, DeviceMaps> resident_;
   size_t resident_bytes_ = 0;
   std::vector<DeviceMaps> scratch_;
+  std::vector<DeviceMaps> spare_;  // buffers of maps that left, for the next ones
+  DeviceDepthMap device_source_;
   std::vector<DeviceMaps*> maps_;
   std::vector<cuda::DeviceBuffer<uint8_t>> used_;  // per view; grow only
   cuda::DeviceBuffer<ViewData> sources_;
@@ -250,6 +328,8 @@ class CudaReferenceFusion : public ReferenceFusion {
   cuda::DeviceBuffer<uint8_t> temp_;
   cuda::PinnedBuffer<FusedPoint> host_points_;
   FuserCacheStats stats_;
+  FuserTimes times_;
+  PreparedVector<KeyframePoint> prepared_;  // the next reference's output
 };
 
 }  // namespace

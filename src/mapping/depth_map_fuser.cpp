@@ -28,6 +28,12 @@ void DepthMapFuser::forgetAll() {
   if (cuda_) cuda_->forgetAll();
 }
 
+void DepthMapFuser::setDeviceSource(const DeviceDepthMap& map) {
+  if (cuda_) cuda_->setDeviceSource(map);
+}
+
 FuserCacheStats DepthMapFuser::cacheStats() const { return cuda_ ? cuda_->cacheStats() : FuserCacheStats(); }
+
+FuserTimes DepthMapFuser::times() const { return cuda_ ? cuda_->times() : FuserTimes(); }
 
 }  // namespace amhmvs

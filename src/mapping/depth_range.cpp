@@ -234,9 +234,9 @@ DepthRangeEstimate estimateDepthRange(const KeyframeStore& store, int64_t id,
   for (int64_t neighbour_id : neighbour_ids) {
     if (neighbour_id == id) continue;
     const StoredKeyframe& stored = store.entry(neighbour_id);
-    if (stored.depth.depth.empty()) continue;
-    const ImageF* cost = stored.depth.cost.empty() ? nullptr : &stored.depth.cost;
-    neighbours.push_back({neighbour_id, &stored.keyframe.camera, &stored.depth.depth, cost});
+    if (stored.depth->depth.empty()) continue;
+    const ImageF* cost = stored.depth->cost.empty() ? nullptr : &stored.depth->cost;
+    neighbours.push_back({neighbour_id, &stored.keyframe.camera, &stored.depth->depth, cost});
   }
   DepthRangeEstimate estimate = estimateDepthRange(keyframe, neighbours, options);
   if (estimate.source != DepthRangeSource::kDefault || !options.match_when_unknown) return estimate;

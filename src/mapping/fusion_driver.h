@@ -28,9 +28,13 @@ class ReferenceFusion {
   virtual size_t fuseReference(int reference, const std::vector<int>& sources,
                                KeyframePoints* points) = 0;
   virtual FuserCacheStats cacheStats() const { return {}; }
+  virtual FuserTimes times() const { return {}; }
   // Drops the resident maps of `key` (no-op when none) or of every key.
   virtual void forget(int64_t key) { (void)key; }
   virtual void forgetAll() {}
+  // A map whose depth, normal and cost are on the device already (see
+  // DepthMapFuser::setDeviceSource).
+  virtual void setDeviceSource(const DeviceDepthMap& map) { (void)map; }
 };
 
 // The CUDA backend (cuda/cuda_fusion.cu; throws BackendError in builds
@@ -49,6 +53,11 @@ ViewData viewData(const FusionView& view, const float* depth, const float* norma
                   const float* cost, const uint8_t* color, const uint8_t* used);
 Checks checks(const FusionOptions& options);
 KeyframePoint toKeyframePoint(const FusedPoint& point);
+// `count` points into out[0..count), converted on all cores.
+void convertPoints(const FusedPoint* points, size_t count, KeyframePoint* out);
+// Appends `count` points to `out` in order, converted on all cores into
+// fresh memory touched from all cores (see fresh_memory.h).
+void appendPoints(const FusedPoint* points, size_t count, KeyframePoints* out);
 
 }  // namespace fusion
 }  // namespace amhmvs

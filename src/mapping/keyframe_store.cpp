@@ -20,7 +20,7 @@ size_t depthMapBytes(const DepthMap& depth) {
 size_t payloadBytes(const StoredKeyframe& stored) {
   return imageBytes(stored.keyframe.image) + imageBytes(stored.gray_image) + depthMapBytes(stored.depth) +
          stored.keyframe.sparse_points.size() * sizeof(Eigen::Vector3d) +
-         stored.points.size() * sizeof(KeyframePoint);
+         stored.points->size() * sizeof(KeyframePoint);
 }
 
 // Empty when `image` is a well-formed image of the camera's size with one of
@@ -239,9 +239,10 @@ void KeyframeStore::setSources(int64_t id, const std::vector<int64_t>& source_id
   for (int64_t source : source_ids) ++source_refs_[source];
 }
 
-std::vector<int64_t> KeyframeStore::attachDepth(int64_t id, DepthMap depth) {
+std::vector<int64_t> KeyframeStore::attachDepth(int64_t id, Shared<DepthMap> shared) {
   Entry& entry = find(id, "attach a depth map to");
   const PinholeCamera& camera = entry.stored.keyframe.camera;
+  const DepthMap& depth = shared;
   std::string why = checkImage(depth.depth, camera, "depth map", {1});
   if (why.empty() && !depth.normal.empty())
     why = checkImage(depth.normal, camera, "normal map", {3});
@@ -254,7 +255,7 @@ std::vector<int64_t> KeyframeStore::attachDepth(int64_t id, DepthMap depth) {
   std::vector<int64_t> evicted;
   if (new_bytes > old_bytes) evicted = makeRoom(0, new_bytes - old_bytes, id);
   Entry& kept = entries_.at(id);  // rehash-safe: erase() does not move other nodes
-  kept.stored.depth = std::move(depth);
+  kept.stored.depth = std::move(shared);
   static std::atomic<uint64_t> last_depth_revision{0};
   kept.stored.depth_revision = ++last_depth_revision;
   bytes_ = bytes_ - old_bytes + new_bytes;
@@ -264,10 +265,10 @@ std::vector<int64_t> KeyframeStore::attachDepth(int64_t id, DepthMap depth) {
   return evicted;
 }
 
-std::vector<int64_t> KeyframeStore::attachPoints(int64_t id, KeyframePoints points) {
+std::vector<int64_t> KeyframeStore::attachPoints(int64_t id, Shared<KeyframePoints> points) {
   Entry& entry = find(id, "attach points to");
-  const size_t old_bytes = entry.stored.points.size() * sizeof(KeyframePoint);
-  const size_t new_bytes = points.size() * sizeof(KeyframePoint);
+  const size_t old_bytes = entry.stored.points->size() * sizeof(KeyframePoint);
+  const size_t new_bytes = points->size() * sizeof(KeyframePoint);
   std::vector<int64_t> evicted;
   if (new_bytes > old_bytes) evicted = makeRoom(0, new_bytes - old_bytes, id);
   Entry& kept = entries_.at(id);

@@ -156,7 +156,8 @@ void MappingPipeline::init(EstimateFunction primary, EstimateFunction fallback, 
       std::lock_guard<std::mutex> lock(stats_mutex_);
       stats_.backend = name + " failed, now cpu";
     }
-    return map;
+    offerDeviceOutputs(map);
+    return map;  // moved: its images keep the addresses the fuser was offered
   };
   const auto fuse = [this](const std::vector<FusionView>& views, const FusionOptions& options) {
     return this->fuse(views, options);
@@ -177,14 +178,27 @@ void MappingPipeline::forgetEvicted(const std::vector<int64_t>& evicted) {
   }
 }
 
+void MappingPipeline::offerDeviceOutputs(const DepthMap& map) {
+  if (!fuser_ || !estimator_) return;
+  // Fusion copies this map on the GPU instead of uploading it, when the GPU
+  // estimator made it (not the CPU fallback).
+  const DeviceDepthMap outputs = estimator_->lastDeviceOutputs();
+  fuser_->setDeviceSource(outputs.host_depth == map.depth.data.data() ? outputs : DeviceDepthMap());
+}
+
+void MappingPipeline::trackDepthKey(int64_t id) {
+  if (!fuser_ || !mapper_->store().contains(id)) return;
+  // The store's depth revision is the fuser's key of the keyframe's map
+  // (FusionView::key): a replaced map leaves the GPU now.
+  const int64_t key = static_cast<int64_t>(mapper_->store().entry(id).depth_revision);
+  const auto known = fused_keys_.emplace(id, key);
+  if (known.second || known.first->second == key) return;
+  fuser_->forget(known.first->second);
+  known.first->second = key;
+}
+
 FusionResult MappingPipeline::fuse(const std::vector<FusionView>& views, const FusionOptions& options) {
   if (fuser_) {
-    for (const FusionView& view : views) {
-      if (view.key < 0) continue;
-      const auto known = fused_keys_.find(view.id);
-      if (known != fused_keys_.end() && known->second != view.key) fuser_->forget(known->second);
-      fused_keys_[view.id] = view.key;
-    }
     try {
       return fuser_->fuse(views, options);
     } catch (const BackendError& e) {
@@ -430,6 +444,11 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
     failure = is_new ? &PipelineStats::dropped_processing_error : nullptr;
     reason = e.what();
   }
+  // The estimator's outputs change with its next estimate.
+  if (fuser_) fuser_->setDeviceSource(DeviceDepthMap());
+  // Also after a failure: the depth map may have been attached (and fused
+  // on the GPU) before something else threw.
+  trackDepthKey(output.result.id);
   if (!reason.empty()) {
     // A new keyframe is dropped; a late one stays a source only; a refined
     // one keeps its depth map.
@@ -476,8 +495,8 @@ void MappingPipeline::account(const PipelineOutput& output) {
     if (!result.refined) ++stats_.depth_maps;
     if (result.late) ++stats_.late_depth_maps;
     if (result.refined) ++stats_.refined_depth_maps;
-    stats_.last_estimate_ms = result.depth.milliseconds;
-    stats_.gpu_memory_bytes = result.depth.gpu_memory_bytes;
+    stats_.last_estimate_ms = result.depth->milliseconds;
+    stats_.gpu_memory_bytes = result.depth->gpu_memory_bytes;
   }
   stats_.last_total_ms = result.times.total_ms;
   for (const FusedKeyframe& fused : result.fused) ++(fused.again ? stats_.keyframes_fused_again : stats_.keyframes_fused);
@@ -603,6 +622,11 @@ DeviceCacheStats MappingPipeline::deviceCacheStats() const {
 FuserCacheStats MappingPipeline::fusionCacheStats() const {
   std::lock_guard<std::mutex> lock(mapper_mutex_);
   return fuser_ ? fuser_->cacheStats() : FuserCacheStats();
+}
+
+FuserTimes MappingPipeline::fusionTimes() const {
+  std::lock_guard<std::mutex> lock(mapper_mutex_);
+  return fuser_ ? fuser_->times() : FuserTimes();
 }
 
 }  // namespace amhmvs

@@ -16,7 +16,7 @@ namespace amhmvs {
 namespace {
 
 bool hasDepthAndNormals(const StoredKeyframe& stored) {
-  return stored.state == KeyframeState::kDone && !stored.depth.depth.empty() && stored.depth.normal.channels == 3;
+  return stored.state == KeyframeState::kDone && !stored.depth->depth.empty() && stored.depth->normal.channels == 3;
 }
 
 // Borrows the stored keyframe's maps and image (no copy): the store keeps
@@ -25,9 +25,9 @@ FusionView fusionView(int local_id, const StoredKeyframe& stored) {
   FusionView view;
   view.id = local_id;
   view.camera = stored.keyframe.camera;
-  view.depth = stored.depth.depth;
-  view.normal = stored.depth.normal;
-  view.cost = stored.depth.cost;
+  view.depth = stored.depth->depth;
+  view.normal = stored.depth->normal;
+  view.cost = stored.depth->cost;
   view.color = stored.keyframe.image;
   view.key = static_cast<int64_t>(stored.depth_revision);
   return view;
@@ -277,7 +277,7 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
       fused.published = publish(id, fused.consistency_ids);
       result->times.confidence_ms += millisecondsSince(start);
     }
-    if (!fused.points.empty()) {
+    if (!fused.points->empty()) {
       start = Clock::now();
       noteEvicted(store_.attachPoints(id, fused.points), result);
       result->times.store_ms += millisecondsSince(start);
@@ -297,7 +297,7 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
   }
 }
 
-void OnlineMapper::addToMap(int64_t id, KeyframePoints points) {
+void OnlineMapper::addToMap(int64_t id, Shared<KeyframePoints> points) {
   finishMapWork();  // one update at a time, in order
   const Eigen::Isometry3d pose = store_.keyframe(id).cameraToWorld();
   std::function<MapUpdateRecord()> update = [this, id, pose, points = std::move(points)]() {

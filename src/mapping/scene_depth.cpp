@@ -53,9 +53,9 @@ std::vector<double> reprojectedDepths(const KeyframeStore& store, const PinholeC
   for (int64_t other : other_ids) {
     const StoredKeyframe& stored = store.entry(other);
     const PinholeCamera& other_camera = stored.keyframe.camera;
-    if (!stored.depth.depth.sameSize(other_camera.width, other_camera.height)) continue;
+    if (!stored.depth->depth.sameSize(other_camera.width, other_camera.height)) continue;
     const RelativePose to_target = relativePose(other_camera, camera);
-    forSampledDepths(stored.depth.depth, [&](int x, int y, double d) {
+    forSampledDepths(stored.depth->depth, [&](int x, int y, double d) {
       addDepthIfSeen(camera, to_target.R * other_camera.backproject(x, y, d) + to_target.t, &depths);
     });
   }
@@ -118,7 +118,7 @@ SceneDepth sceneDepth(const KeyframeStore& store, int64_t id, const std::vector<
   if (usable(own.depth)) return own;
 
   std::vector<double> depths;
-  forSampledDepths(stored.depth.depth, [&](int, int, double d) { depths.push_back(d); });
+  forSampledDepths(stored.depth->depth, [&](int, int, double d) { depths.push_back(d); });
   if (static_cast<int>(depths.size()) >= options.min_depth_samples)
     return median(depths, "depths of its own depth map");
 

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/core/fresh_memory.h"
 
 namespace amhmvs {
 namespace {
@@ -146,37 +147,27 @@ class VoxelIndex {
 void VoxelMap::sumPerVoxel(const std::vector<PlacedPoint>& placed, const KeyframePoints& points,
                            KeyframeSums* sums) {
   const size_t n = placed.size();
-  sums->voxel_of_point.assign(n, -1);
-  // The points of each shard, in point order (a counting sort).
+  const bool parallel = n > 20000;
   std::vector<uint8_t>& shard_of_point = scratch_.shard_of_point;
   shard_of_point.resize(n);
-  size_t shard_start[kShards + 1] = {};
-  for (size_t i = 0; i < n; ++i) {
-    shard_of_point[i] = placed[i].key == kOutsideRegion ? kShards : shardOf(placed[i].key);
-    if (shard_of_point[i] < kShards) ++shard_start[shard_of_point[i] + 1];
-  }
-  for (int shard = 0; shard < kShards; ++shard) shard_start[shard + 1] += shard_start[shard];
-  std::vector<uint32_t>& points_by_shard = scratch_.points_by_shard;
-  points_by_shard.resize(shard_start[kShards]);
-  {
-    size_t next[kShards];
-    std::copy(shard_start, shard_start + kShards, next);
-    for (size_t i = 0; i < n; ++i) {
-      if (shard_of_point[i] < kShards) points_by_shard[next[shard_of_point[i]]++] = static_cast<uint32_t>(i);
-    }
-  }
+  sums->voxel_of_point.resize(n);
+#pragma omp parallel for if (parallel)
+  for (size_t i = 0; i < n; ++i) shard_of_point[i] = placed[i].key == kOutsideRegion ? kShards : shardOf(placed[i].key);
   std::vector<VoxelSums>* per_shard = scratch_.per_shard;
-#pragma omp parallel for schedule(dynamic) if (n > 20000)
+#pragma omp parallel for schedule(dynamic) if (parallel)
   for (int shard = 0; shard < kShards; ++shard) {
+    // Each shard's thread picks its points out of all of them, in point
+    // order (a byte each: cheaper than sorting the points by shard first).
+    const uint8_t own = static_cast<uint8_t>(shard);
+    const size_t count = static_cast<size_t>(std::count(shard_of_point.begin(), shard_of_point.end(), own));
     std::vector<VoxelSums>& out = per_shard[shard];
     out.clear();
     // At most half full: probing ends.
-    VoxelIndex index(shard_start[shard + 1] - shard_start[shard], &scratch_.index_keys[shard],
-                     &scratch_.index_entries[shard]);
+    VoxelIndex index(count, &scratch_.index_keys[shard], &scratch_.index_entries[shard]);
     uint64_t last_key = kOutsideRegion;
     int32_t entry = -1;
-    for (size_t j = shard_start[shard]; j < shard_start[shard + 1]; ++j) {
-      const size_t i = points_by_shard[j];
+    for (size_t i = 0; i < n; ++i) {
+      if (shard_of_point[i] != own) continue;
       const PlacedPoint& p = placed[i];
       // Neighbouring pixels (points come in image order) often share a voxel.
       if (p.key != last_key) {
@@ -201,14 +192,20 @@ void VoxelMap::sumPerVoxel(const std::vector<PlacedPoint>& placed, const Keyfram
       ++voxel.count;
     }
   }
-  sums->voxels.clear();
+  size_t begin = 0;
   for (int shard = 0; shard < kShards; ++shard) {
-    sums->shard_begin[shard] = sums->voxels.size();
-    sums->voxels.insert(sums->voxels.end(), per_shard[shard].begin(), per_shard[shard].end());
+    sums->shard_begin[shard] = begin;
+    begin += per_shard[shard].size();
   }
-  sums->shard_begin[kShards] = sums->voxels.size();
+  sums->shard_begin[kShards] = begin;
+  sums->voxels.resize(begin);
+#pragma omp parallel for if (parallel)
+  for (int shard = 0; shard < kShards; ++shard)
+    std::copy(per_shard[shard].begin(), per_shard[shard].end(), sums->voxels.begin() + sums->shard_begin[shard]);
+#pragma omp parallel for if (parallel)
   for (size_t i = 0; i < n; ++i) {
-    if (shard_of_point[i] < kShards) sums->voxel_of_point[i] += static_cast<int32_t>(sums->shard_begin[shard_of_point[i]]);
+    const uint8_t shard = shard_of_point[i];
+    sums->voxel_of_point[i] = shard < kShards ? sums->voxel_of_point[i] + static_cast<int32_t>(sums->shard_begin[shard]) : -1;
   }
 }
 
@@ -243,19 +240,20 @@ size_t VoxelMap::voxelCount() const {
 }
 
 void VoxelMap::removeContribution(const KeyframeContribution& contribution) {
-  const size_t n = contribution.points.size();
+  const KeyframePoints& points = contribution.points;
+  const size_t n = points.size();
   std::vector<PlacedPoint>& placed = scratch_.removal_placed;
   placed.resize(n);
 #pragma omp parallel for if (n > 20000)
   for (size_t i = 0; i < n; ++i) {
     // Recomputed exactly as when added; the stored key guards against any
     // difference in rounding (the sums are subtracted from the same voxel).
-    place(contribution.camera_to_world, contribution.points[i], &placed[i]);
+    place(contribution.camera_to_world, points[i], &placed[i]);
     placed[i].key = contribution.keys[i];
   }
   for (uint64_t key : contribution.keys) points_outside_region_ -= key == kOutsideRegion;
   KeyframeSums& sums = scratch_.removal_sums;
-  sumPerVoxel(placed, contribution.points, &sums);
+  sumPerVoxel(placed, points, &sums);
   apply(sums, -1.0);
 }
 
@@ -264,7 +262,7 @@ void VoxelMap::evictOldest(VoxelMapUpdate* update) {
   const int64_t id = oldest->second;
   const auto it = keyframes_.find(id);
   removeContribution(it->second);
-  stored_points_ -= it->second.points.size();
+  stored_points_ -= it->second.points->size();
   keyframes_.erase(it);
   order_.erase(oldest);
   update->evicted_keyframes.push_back(id);
@@ -273,36 +271,44 @@ void VoxelMap::evictOldest(VoxelMapUpdate* update) {
 
 VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
                                 const Eigen::Isometry3d& camera_to_world,
-                                const KeyframePoints& points) {
+                                const Shared<KeyframePoints>& points) {
   VoxelMapUpdate update;
-  const size_t n = points.size();
+  const KeyframePoints& input = points;
+  const size_t n = input.size();
   std::vector<PlacedPoint>& placed = scratch_.placed;
   std::vector<uint8_t>& valid = scratch_.valid;
   placed.resize(n);
   valid.resize(n);
+  const auto inside = [this](const Eigen::Vector3d& world) {
+    return (world.array() >= options_.region_min.array()).all() && (world.array() <= options_.region_max.array()).all();
+  };
 #pragma omp parallel for if (n > 20000)
-  for (size_t i = 0; i < n; ++i) valid[i] = place(camera_to_world, points[i], &placed[i]);
-
-  // The usable points, compacted in place (order kept).
-  KeyframePoints accepted;
-  size_t count = 0;
-  accepted.reserve(n);
   for (size_t i = 0; i < n; ++i) {
-    if (!valid[i]) {
-      ++update.skipped_invalid;
-      continue;
-    }
-    if (count >= options_.max_points) {
-      ++update.dropped_over_budget;
-      continue;
-    }
-    PlacedPoint& p = placed[count++] = placed[i];
-    const bool inside = (p.world.array() >= options_.region_min.array()).all() &&
-                        (p.world.array() <= options_.region_max.array()).all();
-    if (!inside) p.key = kOutsideRegion;
-    accepted.push_back(points[i]);
+    valid[i] = place(camera_to_world, input[i], &placed[i]);
+    if (valid[i] && !inside(placed[i].world)) placed[i].key = kOutsideRegion;
   }
-  placed.resize(count);
+  update.skipped_invalid = n - static_cast<size_t>(std::count(valid.begin(), valid.end(), uint8_t{1}));
+
+  // The usable points in order: all of them (shared, no copy: the usual
+  // case), or those that are valid and within max_points (compacted).
+  Shared<KeyframePoints> accepted_shared = points;
+  if (update.skipped_invalid > 0 || n > options_.max_points) {
+    KeyframePoints compacted;
+    compacted.reserve(std::min(n, options_.max_points));
+    size_t count = 0;
+    for (size_t i = 0; i < n; ++i) {
+      if (!valid[i]) continue;
+      if (count >= options_.max_points) {
+        ++update.dropped_over_budget;
+        continue;
+      }
+      placed[count++] = placed[i];
+      compacted.push_back(input[i]);
+    }
+    placed.resize(count);
+    accepted_shared = Shared<KeyframePoints>(std::move(compacted));
+  }
+  const KeyframePoints& accepted = accepted_shared;
   KeyframeSums& sums = scratch_.sums;
   sumPerVoxel(placed, accepted, &sums);
   std::vector<VoxelSums>& voxels = sums.voxels;
@@ -344,25 +350,40 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
   KeyframeContribution kept;
   kept.sequence = sequence;
   kept.camera_to_world = camera_to_world;
-  kept.keys.reserve(placed.size());
   const bool any_dropped = std::any_of(voxels.begin(), voxels.end(), [](const VoxelSums& v) { return v.dropped; });
-  if (!any_dropped) kept.points = std::move(accepted);  // the usual case: no second copy
-  for (size_t i = 0; i < placed.size(); ++i) {
-    const int32_t slot = sums.voxel_of_point[i];
-    if (slot >= 0 && voxels[slot].dropped) {
-      ++update.dropped_over_budget;
-      continue;
+  if (!any_dropped) {  // the usual case: every accepted point is kept
+    const size_t count = placed.size();
+    reserveTouched(&kept.keys, count);  // kept: fresh memory every time
+    kept.keys.resize(count);
+    size_t outside = 0;
+#pragma omp parallel for reduction(+ : outside) if (count > 20000)
+    for (size_t i = 0; i < count; ++i) {
+      kept.keys[i] = placed[i].key;
+      outside += sums.voxel_of_point[i] < 0;
     }
-    if (slot >= 0) {
-      ++update.added_points;
-    } else {
-      ++update.outside_region;
+    update.outside_region = outside;
+    update.added_points = count - outside;
+    kept.points = accepted_shared;
+  } else {
+    KeyframePoints survivors;
+    for (size_t i = 0; i < placed.size(); ++i) {
+      const int32_t slot = sums.voxel_of_point[i];
+      if (slot >= 0 && voxels[slot].dropped) {
+        ++update.dropped_over_budget;
+        continue;
+      }
+      if (slot >= 0) {
+        ++update.added_points;
+      } else {
+        ++update.outside_region;
+      }
+      survivors.push_back(accepted[i]);
+      kept.keys.push_back(placed[i].key);
     }
-    if (any_dropped) kept.points.push_back(accepted[i]);
-    kept.keys.push_back(placed[i].key);
+    kept.points = Shared<KeyframePoints>(std::move(survivors));
   }
   points_outside_region_ += update.outside_region;
-  stored_points_ += kept.points.size();
+  stored_points_ += kept.points->size();
   keyframes_[id] = std::move(kept);
   order_[sequence] = id;
   total_skipped_invalid_ += update.skipped_invalid;
@@ -371,7 +392,7 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
 }
 
 VoxelMapUpdate VoxelMap::addKeyframe(int64_t id, const Eigen::Isometry3d& camera_to_world,
-                                     const KeyframePoints& points) {
+                                     Shared<KeyframePoints> points) {
   const std::string why = validateRigidPose(camera_to_world);
   if (!why.empty()) throw InputError("voxel map: keyframe " + std::to_string(id) + ": " + why);
   if (contains(id)) removeKeyframe(id);
@@ -384,7 +405,7 @@ void VoxelMap::removeKeyframe(int64_t id) {
     throw InputError("voxel map: keyframe " + std::to_string(id) + " is not in the map");
   }
   removeContribution(it->second);
-  stored_points_ -= it->second.points.size();
+  stored_points_ -= it->second.points->size();
   order_.erase(it->second.sequence);
   keyframes_.erase(it);
 }
@@ -399,7 +420,7 @@ VoxelMapUpdate VoxelMap::updatePose(int64_t id, const Eigen::Isometry3d& camera_
   if (!why.empty()) throw InputError("voxel map: keyframe " + std::to_string(id) + ": " + why);
   // Keep the keyframe's place in the eviction order.
   const uint64_t sequence = it->second.sequence;
-  const KeyframePoints points = it->second.points;
+  const Shared<KeyframePoints> points = it->second.points;  // shared: no copy
   removeKeyframe(id);
   return insert(id, sequence, camera_to_world, points);
 }
@@ -410,6 +431,14 @@ const Eigen::Isometry3d& VoxelMap::pose(int64_t id) const {
     throw InputError("voxel map: keyframe " + std::to_string(id) + " is not in the map");
   }
   return it->second.camera_to_world;
+}
+
+const Shared<KeyframePoints>& VoxelMap::keyframePoints(int64_t id) const {
+  const auto it = keyframes_.find(id);
+  if (it == keyframes_.end()) {
+    throw InputError("voxel map: keyframe " + std::to_string(id) + " is not in the map");
+  }
+  return it->second.points;
 }
 
 std::vector<int64_t> VoxelMap::keyframeIds() const {

@@ -25,6 +25,7 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options,
 void forgetOnCuda(CudaState& state, int64_t key);
 void forgetAllOnCuda(CudaState& state);
 DeviceCacheStats cudaCacheStats(const CudaState& state);
+DeviceDepthMap cudaLastOutputs(const CudaState& state);
 bool cudaDeviceUsable(std::string* description);
 
 }  // namespace mvs

@@ -23,6 +23,7 @@ DepthMap estimateOnCuda(CudaState&, const PatchMatchOptions&, const PatchMatchPa
 void forgetOnCuda(CudaState&, int64_t) {}
 void forgetAllOnCuda(CudaState&) {}
 DeviceCacheStats cudaCacheStats(const CudaState&) { return {}; }
+DeviceDepthMap cudaLastOutputs(const CudaState&) { return {}; }
 
 }  // namespace mvs
 }  // namespace amhmvs

@@ -213,6 +213,11 @@ DeviceCacheStats DepthEstimator::deviceCacheStats() const {
   return cuda_ ? mvs::cudaCacheStats(*cuda_) : DeviceCacheStats();
 }
 
+DeviceDepthMap DepthEstimator::lastDeviceOutputs() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return cuda_ ? mvs::cudaLastOutputs(*cuda_) : DeviceDepthMap();
+}
+
 bool cudaBackendAvailable(std::string* description) { return mvs::cudaDeviceUsable(description); }
 
 }  // namespace amhmvs

@@ -57,7 +57,7 @@ MappingOutputs::MappingOutputs(ros::NodeHandle& nh, const MappingConfig& config,
 void MappingOutputs::publishViewFrame(const amhmvs::KeyframeResult& result, const ros::Time& stamp) {
   Eigen::Vector3d anchor;
   if (!view_broadcaster_ || view_published_ || !result.has_depth ||
-      !amhmvs::viewAnchor(result.camera, result.depth.depth, &anchor))
+      !amhmvs::viewAnchor(result.camera, result.depth->depth, &anchor))
     return;
   geometry_msgs::TransformStamped view;
   view.header.stamp = stamp;
@@ -99,7 +99,7 @@ void MappingOutputs::publish(const amhmvs::KeyframeResult& result, const Keyfram
                    [&] { return confidenceImageMsg(fused.published, fused_header); });
     }
   } else if (result.has_depth) {
-    publishDepth(result.depth.depth, result.camera, header, [&] { return confidenceImageMsg(result.depth, header); });
+    publishDepth(result.depth->depth, result.camera, header, [&] { return confidenceImageMsg(result.depth, header); });
   }
   // keyframe_cloud: each keyframe this result fused (this one, earlier ones
   // that waited for enough consistency views, or a refined one again), with

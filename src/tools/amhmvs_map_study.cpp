@@ -145,7 +145,7 @@ void recordOutput(const KeyframeResult& result, const std::vector<FusionOptions>
     KeyframeRecord& record = run->keyframes[fused.id];
     record.fused = true;
     record.published = fused.published;
-    record.fused_points = fused.points.size();
+    record.fused_points = fused.points->size();
     record.other_agreements.clear();
     if (agreements.empty()) continue;
     std::vector<FusionView> views;

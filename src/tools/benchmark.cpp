@@ -9,13 +9,14 @@
 // usage: amhmvs_benchmark [DATA_DIR] [--out FILE] [--runs N] [--cpu-threads N] [--quick]
 //                         [--only SCENE[,SCENE...]]  (fountain_x0.25 ... fountain_x1,
 //                                           synthetic, scaling, cpu, cpu-scaling, fusion,
-//                                           pipeline, replay)
+//                                           map, pipeline, replay)
 //                         [--replay N]     keyframes of the memory replay (10000)
 //                         [--map-foreground] the replay updates the voxel map in its own thread
 //
 // Online pipeline tables (MappingPipeline, GPU when usable):
 //   fusion:   fuseDepthMaps (CPU, OpenMP, all cores) of a 640x480 keyframe
 //             against 4 and 8 views (true depth of the room scene);
+//   map:      VoxelMap::addKeyframe alone, 640x480 keyframes of true points;
 //   pipeline: a 640x480 room sequence, push + step per keyframe, with 4 and 8
 //             sources: keyframes per second end to end and the median stages;
 //   replay:   N keyframes of 160x120 through one pipeline; host RSS and
@@ -227,6 +228,53 @@ std::string fusionTable(int runs) {
   return out.str();
 }
 
+// The voxel-map update alone (VoxelMap::addKeyframe in the caller's thread,
+// all cores): `count` 640x480 keyframes of the room scene along its
+// trajectory, each pixel with a true depth one point (camera frame, about
+// 300,000 per keyframe: more than fusion keeps), median and largest ms.
+std::string mapTable(int count) {
+  const SyntheticWorld world = makeIndoorRoomWorld(1);
+  const std::vector<PinholeCamera> cameras = makeSmoothTrajectory(count, 640, 480, 1);
+  std::vector<Shared<KeyframePoints>> keyframes;
+  size_t total = 0;
+  for (const PinholeCamera& camera : cameras) {
+    const RenderedView view = renderView(world, camera, 1);
+    KeyframePoints points;
+    for (int y = 0; y < view.depth.height; ++y) {
+      for (int x = 0; x < view.depth.width; ++x) {
+        const float z = view.depth.at(x, y);
+        if (!std::isfinite(z)) continue;
+        KeyframePoint point;
+        point.position = camera.backproject(x, y, z).cast<float>();
+        point.normal = Eigen::Vector3f(view.normal.at(x, y, 0), view.normal.at(x, y, 1), view.normal.at(x, y, 2));
+        for (int c = 0; c < 3; ++c) point.rgb[c] = view.image.at(x, y, c);
+        points.push_back(point);
+      }
+    }
+    total += points.size();
+    keyframes.emplace_back(std::move(points));
+  }
+  VoxelMapOptions options;
+  options.leaf_size = 0.02;
+  VoxelMap map(options);
+  std::vector<double> times;
+  for (int i = 0; i < count; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    map.addKeyframe(i, cameraToWorld(cameras[i]), keyframes[i]);
+    times.push_back(millisecondsSince(start));
+  }
+  std::ostringstream out;
+  char line[300];
+  std::snprintf(line, sizeof(line),
+                "\n## Voxel-map update alone, %d keyframes of 640x480 (room, every pixel a point: %.0f per keyframe)\n\n"
+                "| median ms | largest ms | voxels at the end |\n|---|---|---|\n| %.2f | %.2f | %zu |\n",
+                count, static_cast<double>(total) / count, median(times), *std::max_element(times.begin(), times.end()),
+                map.voxelCount());
+  out << line;
+  std::fprintf(stderr, "%s", line);
+  return out.str();
+}
+
 PipelineOptions pipelineOptions(int sources) {
   PipelineOptions options;
   options.mapper.sources.max_sources = sources;
@@ -247,9 +295,11 @@ std::string pipelineTable(int keyframe_count) {
          "with a depth map (estimate: the estimator's wall time; fusion and map: the fusions and map updates "
          "this keyframe's step did).\n\n"
       << "| sources | estimate / fusion backend | keyframes/s | median total ms | selection | depth range | problem | estimate "
-         "| (estimator's own) | store | fusion | map (waiting for it) | map update (background) | rest | device images: uploads / hits / evictions |\n"
-      << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+         "| (estimator's own) | store | fusion | map (waiting for it) | map update (background) | rest | device images: uploads / hits / evictions "
+         "| fused maps: uploads (of them copied on the GPU) / hits |\n"
+      << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   const std::vector<Keyframe> keyframes = roomKeyframes(keyframe_count, 640, 480, 1);
+  std::string splits;  // after the table
   for (int sources : {4, 8}) {
     MappingPipeline pipeline(pipelineOptions(sources));
     std::vector<double> totals, selection, range, problem, estimate, own, store, fusion, map, rest, map_background;
@@ -281,7 +331,7 @@ std::string pipelineTable(int keyframe_count) {
       problem.push_back(times->problem_ms);
       estimate.push_back(times->estimate_ms);
       for (const PipelineOutput& output : outputs) {
-        if (output.result.id == keyframe.id && output.result.has_depth) own.push_back(output.result.depth.milliseconds);
+        if (output.result.id == keyframe.id && output.result.has_depth) own.push_back(output.result.depth->milliseconds);
       }
       store.push_back(stored);
       fusion.push_back(fused);
@@ -291,18 +341,32 @@ std::string pipelineTable(int keyframe_count) {
     }
     const double seconds = millisecondsSince(start) / 1000.0;
     const PipelineStats stats = pipeline.stats();
-    char line[400];
+    const FuserCacheStats fused_maps = pipeline.fusionCacheStats();
+    char line[500];
     std::snprintf(line, sizeof(line),
-                  "| %d | %s | %.1f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %s |\n", sources,
+                  "| %d | %s | %.1f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %s | %lu (%lu) / %lu |\n", sources,
                   (stats.backend + " / " + backendName(pipeline.fusionBackend())).c_str(), keyframes.size() / seconds, median(totals), median(selection), median(range),
                   median(problem), median(estimate), median(own), median(store), median(fusion), median(map), median(map_background), median(rest),
-                  cacheSummary(pipeline.deviceCacheStats()).c_str());
+                  cacheSummary(pipeline.deviceCacheStats()).c_str(), static_cast<unsigned long>(fused_maps.uploads),
+                  static_cast<unsigned long>(fused_maps.device_copies), static_cast<unsigned long>(fused_maps.hits));
     out << line;
     std::fprintf(stderr, "%s", line);  // progress: visible if the run is cut short
+    const FuserTimes fuser = pipeline.fusionTimes();
+    if (fuser.references > 0) {
+      const double n = static_cast<double>(fuser.references);
+      std::snprintf(line, sizeof(line),
+                    "\n%d sources, GPU fusion per reference (mean of %lu): %.2f ms maps onto the device, %.2f check, "
+                    "%.2f download, %.2f into KeyframePoints\n\n",
+                    sources, static_cast<unsigned long>(fuser.references), fuser.place_ms / n, fuser.check_ms / n,
+                    fuser.download_ms / n, fuser.convert_ms / n);
+      splits += line;
+      std::fprintf(stderr, "%s", line);
+    }
     std::fprintf(stderr, "pipeline %d sources: %lu depth maps, %lu fused, %lu dropped\n", sources,
                  static_cast<unsigned long>(stats.depth_maps), static_cast<unsigned long>(stats.keyframes_fused),
                  static_cast<unsigned long>(stats.droppedTotal()));
   }
+  out << splits;
   return out.str();
 }
 
@@ -479,6 +543,8 @@ int main(int argc, char** argv) {
     const auto save = [&] { std::ofstream(out_path) << renderTables(gpu ? device : "none (CPU only)", rows, online); };
     save();
     if (wants("fusion")) online += fusionTable(std::max(runs, 5));
+    save();
+    if (wants("map")) online += mapTable(quick ? 12 : 60);
     save();
     if (wants("pipeline")) {
       online += pipelineTable(quick ? 12 : 60);

@@ -159,14 +159,14 @@ std::vector<Cell> resultCells(const KeyframeResult& result, const PosedFrame* fr
       textCell("depth_range_source", depth ? depthRangeSourceName(result.depth_range.source) : ""),
       {"width", std::to_string(result.camera.width), std::to_string(result.camera.width)},
       {"height", std::to_string(result.camera.height), std::to_string(result.camera.height)},
-      textCell("backend", depth ? backendName(result.depth.backend) : "")};
+      textCell("backend", depth ? backendName(result.depth->backend) : "")};
   for (const auto& field : stageFields()) cells.push_back(numberCell(field.first, result.times.*field.second));
-  cells.push_back(numberCell("estimator_ms", depth ? result.depth.milliseconds : NAN));
+  cells.push_back(numberCell("estimator_ms", depth ? result.depth->milliseconds : NAN));
   std::vector<int64_t> fused_ids;
   size_t fused_points = 0;
   for (const FusedKeyframe& fused : result.fused) {
     fused_ids.push_back(fused.id);
-    fused_points += fused.points.size();
+    fused_points += fused.points->size();
   }
   cells.push_back(idListCell("fused_ids", fused_ids));
   cells.push_back({"fused_points", std::to_string(fused_points), std::to_string(fused_points)});
@@ -264,7 +264,7 @@ void MapOutputs::writeDepth(int64_t id, const ImageF& depth, const DepthRangeEst
 void MapOutputs::writeFiles(const KeyframeResult& result) {
   if (result.has_depth) depth_ranges_[result.id] = result.depth_range;
   // With the confidence, a depth map is published when its keyframe is fused.
-  if (result.has_depth && !publishesWhenFused()) writeDepth(result.id, result.depth.depth, result.depth_range);
+  if (result.has_depth && !publishesWhenFused()) writeDepth(result.id, result.depth->depth, result.depth_range);
   for (const FusedKeyframe& fused : result.fused) {
     if (fused.published.empty()) continue;
     writeDepth(fused.id, fused.published.depth, depth_ranges_[fused.id]);
@@ -302,7 +302,7 @@ bool MapOutputs::compareWithTruth(const KeyframeResult& result, const PosedFrame
                                   DepthComparison* comparison) {
   if (!result.has_depth || !frame || !frame->ground_truth.present()) return false;
   const DepthMapView truth = readGroundTruthDepth(frame->ground_truth, result.camera);
-  *comparison = compareDepth(result.depth.depth,
+  *comparison = compareDepth(result.depth->depth,
                              groundTruthDepthIn(truth, frame->ground_truth.registered, result.camera));
   accuracy_[result.id] = *comparison;  // a refinement replaces the earlier depth map
   if (!truth_points_.count(result.id)) {

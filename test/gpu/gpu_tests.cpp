@@ -259,15 +259,15 @@ void onlineMapperFountain(const std::string& data, const std::string& label, con
     const KeyframeResult& result = output.result;
     if (!result.has_depth) return;
     ++estimates;
-    on_cpu += result.depth.backend != Backend::kCuda;
-    ms += result.depth.milliseconds;
+    on_cpu += result.depth->backend != Backend::kCuda;
+    ms += result.depth->milliseconds;
     latest[result.id] = result.depth;
     cameras[result.id] = result.camera;
     std::printf("  keyframe %2ld%-8s %zu sources, depth %.1f..%.1f m (%s), %.1f ms estimate, %.1f ms in all: %s %%\n",
                 static_cast<long>(result.id), result.late ? " late" : result.refined ? " refined" : "",
                 result.selection.source_ids.size(), result.depth_range.min, result.depth_range.max,
                 depthRangeSourceName(result.depth_range.source), result.times.estimate_ms, result.times.total_ms,
-                sparsePointAccuracy(result.depth.depth, result.camera, static_cast<int>(result.id), points)
+                sparsePointAccuracy(result.depth->depth, result.camera, static_cast<int>(result.id), points)
                     .percentages().c_str());
   };
   for (const SceneView& view : scene.views) {
@@ -310,6 +310,15 @@ void onlineMapperFountain(const std::string& data, const std::string& label, con
                 after_reset.resident_bytes);
   expect(cache.forgotten > 0 && cache.resident_bytes <= latest.size() * map_bytes && after_reset.resident_bytes == 0,
          text);
+  // Each depth map is uploaded to the fuser once (its key is its store
+  // revision), and the estimator's device outputs are copied rather than
+  // uploaded whenever the map is fused in the step that estimated it.
+  std::snprintf(text, sizeof(text),
+                "pipeline on the GPU, %s: %lu fuser uploads for %d depth maps (at most one each), %lu of them "
+                "copied from the estimator on the device",
+                label.c_str(), static_cast<unsigned long>(cache.uploads), estimates,
+                static_cast<unsigned long>(cache.device_copies));
+  expect(cache.uploads <= static_cast<uint64_t>(estimates) && cache.device_copies > 0, text);
   const std::string what = "pipeline (nodelet core, CUDA), " + label + ": fountain_x0.25 sparse agreement";
   if (check)
     checkFloors(what, pooled, kFountainFloors);
@@ -605,6 +614,58 @@ void gpuFusion(int width, int height) {
          text);
 }
 
+// Fusion reading the estimator's outputs on the device (the pipeline's path:
+// DepthEstimator::lastDeviceOutputs, DepthMapFuser::setDeviceSource) gives
+// exactly the points of uploading the same depth map from the host; views
+// that do not borrow those host images are uploaded as before.
+void fusionFromEstimatorOutputs(const std::string& data, int max_image_size) {
+  FountainImages fountain(data, max_image_size);
+  DepthEstimator estimator(PatchMatchOptions(), Backend::kCuda);
+  std::vector<DepthMap> maps;  // views 1, 2, then the reference 0 (the last estimate)
+  std::vector<PinholeCamera> cameras;
+  for (int id : {1, 2, 0}) {
+    const DepthProblem problem = fountain.images.makeProblem(id);
+    maps.push_back(estimator.estimate(problem));
+    cameras.push_back(problem.reference_camera);
+  }
+  const DeviceDepthMap outputs = estimator.lastDeviceOutputs();
+  const auto view = [&](int index, std::vector<int> sources, int64_t key) {
+    FusionView v;
+    v.id = index;
+    v.camera = cameras[index];
+    v.depth = maps[index].depth;
+    v.normal = maps[index].normal;
+    v.cost = maps[index].cost;
+    v.source_ids = std::move(sources);
+    v.key = key;
+    return v;
+  };
+  // The reference (the last estimate) is view 2, checked against views 0 and 1.
+  const std::vector<FusionView> views = {view(0, {}, 1), view(1, {}, 2), view(2, {0, 1}, 3)};
+  const FusionOptions options = FusionOptions::reprojection();
+  DepthMapFuser uploading(Backend::kCuda), copying(Backend::kCuda);
+  copying.setDeviceSource(outputs);
+  const FusionResult uploaded = uploading.fuse(views, options);
+  const FusionResult copied = copying.fuse(views, options);
+  const KeyframePoints& a = uploaded.views.back().points;
+  const KeyframePoints& b = copied.views.back().points;
+  bool identical = a.size() == b.size() && uploaded.candidate_pixels == copied.candidate_pixels;
+  for (size_t i = 0; identical && i < a.size(); ++i) {
+    identical = a[i].position == b[i].position && a[i].normal == b[i].normal && a[i].confidence == b[i].confidence &&
+                a[i].consistent_views == b[i].consistent_views;
+  }
+  char text[300];
+  std::snprintf(text, sizeof(text),
+                "GPU fusion from the estimator's device outputs: %zu points, identical to uploading the map; "
+                "device copies %lu of %lu uploads (the other views from the host)",
+                b.size(), static_cast<unsigned long>(copying.cacheStats().device_copies),
+                static_cast<unsigned long>(copying.cacheStats().uploads));
+  expect(identical && a.size() > 100 && copying.cacheStats().device_copies == 1 &&
+             copying.cacheStats().uploads == 3 && uploading.cacheStats().device_copies == 0 &&
+             outputs.host_depth == maps.back().depth.data.data(),
+         text);
+}
+
 }  // namespace
 }  // namespace amhmvs
 
@@ -644,6 +705,7 @@ int main(int argc, char** argv) {
       for (int id : {0, 1, 2, 3, 9, 10}) pooled.estimate(fountain.images.makeProblem(id));
       expect(pooled.deviceCacheStats().evictions > 0, "sanitizer: resident pool with evictions ran");
       gpuFusion(96, 72);
+      fusionFromEstimatorOutputs(data, 96);
       return failures ? 1 : 0;
     }
     textureEmulation();
@@ -652,6 +714,7 @@ int main(int argc, char** argv) {
     determinism(data);
     residentPool(data);
     gpuFusion(640, 480);
+    fusionFromEstimatorOutputs(data, 384);
     middlebury(data, Backend::kCuda, true);
     middlebury(data, Backend::kCpu, false);
     middleburyGeometric(data);

@@ -162,7 +162,7 @@ TEST(KeyframeStore, UpdatesPosesOfPendingAndDoneKeyframes) {
   EXPECT_TRUE(store.keyframe(2).cameraToWorld().matrix().isApprox(moved.matrix(), 1e-12));
   EXPECT_EQ(store.entry(1).pose_revision, 1u);
   EXPECT_EQ(store.state(2), KeyframeState::kDone);
-  EXPECT_EQ(store.entry(2).depth.depth.width, kWidth);  // attachments survive
+  EXPECT_EQ(store.entry(2).depth->depth.width, kWidth);  // attachments survive
   // The sparse point moved with the keyframe: still 2 m in front.
   EXPECT_TRUE(store.keyframe(1)
                   .camera.toCamera(store.keyframe(1).sparse_points[0])

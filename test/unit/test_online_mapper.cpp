@@ -75,9 +75,9 @@ TEST(OnlineMapper, FirstKeyframeIsASourceThenDeferredFusionAndMap) {
   EXPECT_EQ(fourth.waiting_for_fusion, 0u);
   EXPECT_EQ(calls, 3);
   for (const FusedKeyframe& fused : fourth.fused) {
-    ASSERT_FALSE(fused.points.empty());
+    ASSERT_FALSE(fused.points->empty());
     EXPECT_TRUE(mapper.map().contains(fused.id));
-    for (const KeyframePoint& point : fused.points)
+    for (const KeyframePoint& point : *fused.points)
       EXPECT_NEAR(point.position.z() + cameraToWorld(fused.camera).translation().z(), kWallZ, 1e-4);
   }
   const PointCloud cloud = mapper.map().exportCloud();
@@ -107,7 +107,7 @@ TEST(OnlineMapper, FusedKeyframesCarryTheirConfidenceAndPublishedDepth) {
       for (const FusedKeyframe& fused : result.fused) {
         ASSERT_FALSE(fused.published.empty());
         ++published;
-        const ImageF& depth = mapper.store().entry(fused.id).depth.depth;
+        const ImageF& depth = mapper.store().entry(fused.id).depth->depth;
         const PublishedDepth& p = fused.published;
         EXPECT_EQ(p.min_probability, level);
         for (size_t i = 0; i < depth.data.size(); ++i) {
@@ -130,6 +130,22 @@ TEST(OnlineMapper, FusedKeyframesCarryTheirConfidenceAndPublishedDepth) {
   for (int64_t id = 0; id < 5; ++id) {
     for (const FusedKeyframe& fused : mapper.process(keyframeAt(id, 0.5 * id)).fused)
       EXPECT_TRUE(fused.published.empty());
+  }
+}
+
+// One buffer per keyframe: the depth map of a result is the store's, and its
+// fused points are the store's and the map's (no copies on the way).
+TEST(OnlineMapper, ResultsShareTheirDepthMapAndPointsWithTheStoreAndTheMap) {
+  OnlineMapper mapper(wallOptions(), [](const DepthProblem& problem) { return wallDepth(problem); });
+  for (int i = 0; i < 3; ++i) mapper.process(keyframeAt(i, 0.5 * i));
+  const KeyframeResult result = mapper.process(keyframeAt(3, 1.5));
+  ASSERT_TRUE(result.has_depth);
+  EXPECT_TRUE(result.depth.sameValue(mapper.store().entry(3).depth));
+  ASSERT_FALSE(result.fused.empty());
+  for (const FusedKeyframe& fused : result.fused) {
+    ASSERT_FALSE(fused.points->empty());
+    EXPECT_TRUE(fused.points.sameValue(mapper.store().entry(fused.id).points)) << fused.id;
+    EXPECT_TRUE(fused.points.sameValue(mapper.map().keyframePoints(fused.id))) << fused.id;
   }
 }
 
@@ -156,8 +172,8 @@ TEST(OnlineMapper, KeyframeWithoutSourceGetsItsDepthMapOnceALaterKeyframeQualifi
   ASSERT_TRUE(late.has_depth);
   EXPECT_EQ(late.selection.source_ids, std::vector<int64_t>{1});  // the LATER keyframe
   EXPECT_NEAR(cameraToWorld(late.camera).translation().x(), 0.0, 1e-12);
-  EXPECT_FLOAT_EQ(late.depth.depth.at(3, 2), static_cast<float>(kWallZ));
-  EXPECT_EQ(mapper.store().entry(0).depth.normal.channels, 3);
+  EXPECT_FLOAT_EQ(late.depth->depth.at(3, 2), static_cast<float>(kWallZ));
+  EXPECT_EQ(mapper.store().entry(0).depth->normal.channels, 3);
   EXPECT_TRUE(mapper.waitingForSources().empty());
   EXPECT_EQ(mapper.waitingForFusion(), (std::vector<int64_t>{1, 0}));
   EXPECT_TRUE(late.fused.empty());  // each has one other depth map, 2 are required
@@ -182,7 +198,7 @@ TEST(OnlineMapper, SourceViewServesLaterKeyframesAndNeverGetsADepthMap) {
   KeyframeResult late;
   EXPECT_FALSE(mapper.estimateLate(&late));
   EXPECT_FALSE(mapper.refine(&late));
-  const ImageF& depth = mapper.store().entry(0).depth.depth;
+  const ImageF& depth = mapper.store().entry(0).depth->depth;
   EXPECT_TRUE(std::all_of(depth.data.begin(), depth.data.end(), [](float d) { return std::isnan(d); }));
   EXPECT_THROW(mapper.addSourceView(keyframeAt(0, 1.0)), InputError);  // duplicate id
 }
@@ -274,7 +290,7 @@ TEST(OnlineMapper, RefineReestimatesAKeyframeOnceWhenLaterKeyframesGiveBetterSou
   // Re-fusion replaced points, never added copies: the map is still the wall.
   for (const Eigen::Vector3f& p : mapper.map().exportCloud().points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
   size_t points = 0;
-  for (int64_t id : mapper.map().keyframeIds()) points += mapper.store().entry(id).points.size();
+  for (int64_t id : mapper.map().keyframeIds()) points += mapper.store().entry(id).points->size();
   EXPECT_EQ(mapper.map().storedPointCount(), points);
 }
 
@@ -295,15 +311,15 @@ TEST(OnlineMapper, RefinementWorseByTheEstimatorsEvidenceIsRejectedAndABetterOne
   EXPECT_NE(result.refinement_evidence.find("confident pixels 768 -> 0, median cost 0.1 -> 0.9"), std::string::npos)
       << result.refinement_evidence;
   EXPECT_TRUE(result.fused.empty());
-  EXPECT_FLOAT_EQ(mapper.store().entry(0).depth.depth.at(3, 3), static_cast<float>(kWallZ));
-  EXPECT_FLOAT_EQ(mapper.store().entry(0).depth.cost.at(3, 3), 0.1f);
+  EXPECT_FLOAT_EQ(mapper.store().entry(0).depth->depth.at(3, 3), static_cast<float>(kWallZ));
+  EXPECT_FLOAT_EQ(mapper.store().entry(0).depth->cost.at(3, 3), 0.1f);
   EXPECT_EQ(mapper.map().storedPointCount(), map_points);
   for (const Eigen::Vector3f& p : mapper.map().exportCloud().points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
   // Keyframe 1 with {0, 2}: lower cost everywhere, kept and fused again.
   ASSERT_TRUE(mapper.refine(&result));
   EXPECT_EQ(result.id, 1);
   EXPECT_FALSE(result.refinement_rejected) << result.refinement_evidence;
-  EXPECT_FLOAT_EQ(mapper.store().entry(1).depth.cost.at(3, 3), 0.05f);
+  EXPECT_FLOAT_EQ(mapper.store().entry(1).depth->cost.at(3, 3), 0.05f);
   ASSERT_EQ(fusedIds(result), std::vector<int64_t>{1});
   // The rejected selection is not tried again.
   EXPECT_FALSE(mapper.refine(&result));
@@ -317,7 +333,7 @@ TEST(OnlineMapper, RefinementWorseByTheEstimatorsEvidenceIsRejectedAndABetterOne
   always.process(keyframeAt(2, 1.0));
   ASSERT_TRUE(always.refine(&result));
   EXPECT_FALSE(result.refinement_rejected);
-  EXPECT_FLOAT_EQ(always.store().entry(0).depth.depth.at(3, 3), 4.0f);
+  EXPECT_FLOAT_EQ(always.store().entry(0).depth->depth.at(3, 3), 4.0f);
 }
 
 TEST(OnlineMapper, RefinementCanBeSwitchedOffAndItsOptionsAreChecked) {
@@ -393,13 +409,13 @@ TEST(OnlineMapper, KeyframeFusedFirstWithoutPointsIsFusedAgainWhenRefined) {
   }
   ASSERT_EQ(fusions_of_1.size(), 1u);
   EXPECT_FALSE(fusions_of_1[0].again);
-  EXPECT_TRUE(fusions_of_1[0].points.empty());
+  EXPECT_TRUE(fusions_of_1[0].points->empty());
   EXPECT_FALSE(mapper.map().contains(1));
   KeyframeResult refined;
   while (mapper.refine(&refined)) keep(refined);
   ASSERT_EQ(fusions_of_1.size(), 2u);
   EXPECT_TRUE(fusions_of_1[1].again);  // a second fusion, though the first left no point
-  EXPECT_FALSE(fusions_of_1[1].points.empty());
+  EXPECT_FALSE(fusions_of_1[1].points->empty());
   EXPECT_TRUE(mapper.map().contains(1));
 }
 
@@ -474,7 +490,7 @@ TEST(OnlineMapper, LoopClosureMovesTheKeyframesMapPointsExactly) {
   // Keyframes 1 and 3 share voxels with 2: compare the sums of all points
   // (voxel mean times count), which only keyframe 2's points change.
   const size_t points = mapper.map().storedPointCount();
-  const size_t moved = mapper.store().entry(2).points.size();
+  const size_t moved = mapper.store().entry(2).points->size();
   ASSERT_GT(moved, 0u);
   double sum_before = 0, sum_after = 0;
   size_t count_before = 0, count_after = 0;

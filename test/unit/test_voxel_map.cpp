@@ -79,7 +79,7 @@ TEST(VoxelMap, AveragesPointsPerVoxel) {
   b.normal = Eigen::Vector3f(0, 1, 0);
   b.rgb[2] = 61;
   const KeyframePoint c = makePoint(0.55f, 0.f, 0.f);
-  const VoxelMapUpdate update = map.addKeyframe(1, Eigen::Isometry3d::Identity(), {a, b, c});
+  const VoxelMapUpdate update = map.addKeyframe(1, Eigen::Isometry3d::Identity(), KeyframePoints{a, b, c});
   EXPECT_EQ(update.added_points, 3u);
   EXPECT_EQ(map.voxelCount(), 2u);
 
@@ -100,7 +100,7 @@ TEST(VoxelMap, OpposingNormalsGiveZeroNormalNotNaN) {
   up.normal = Eigen::Vector3f(0, 0, 1);
   KeyframePoint down = up;
   down.normal = Eigen::Vector3f(0, 0, -1);
-  map.addKeyframe(1, Eigen::Isometry3d::Identity(), {up, down});
+  map.addKeyframe(1, Eigen::Isometry3d::Identity(), KeyframePoints{up, down});
   const PointCloud cloud = map.exportCloud();
   ASSERT_EQ(cloud.size(), 1u);
   EXPECT_EQ(cloud.normals[0], Eigen::Vector3f::Zero());
@@ -319,6 +319,33 @@ TEST(VoxelMap, BoundsEvictOldestKeyframesAndDropTheRest) {
   EXPECT_EQ(map.voxelCount(), 1000u);
   EXPECT_GT(map.memoryBytes(), 1000 * sizeof(KeyframePoint));
   expectAllFinite(map.exportCloud());
+}
+
+// The map keeps a keyframe's points for re-posing: the caller's buffer
+// itself when every point is accepted (no copy per keyframe), a compacted
+// copy when some are not; the map's contents do not depend on which.
+TEST(VoxelMap, KeepsTheCallersPointsWithoutACopyUnlessSomeAreDropped) {
+  VoxelMap map;
+  const Shared<KeyframePoints> good(gridPoints(4, 0.5f));
+  map.addKeyframe(1, pose(Eigen::Vector3d(1, 0, 0)), good);
+  EXPECT_TRUE(map.keyframePoints(1).sameValue(good));
+  map.updatePose(1, pose(Eigen::Vector3d(2, 0, 0)));
+  EXPECT_TRUE(map.keyframePoints(1).sameValue(good));  // re-posing shares it too
+
+  KeyframePoints with_bad = gridPoints(4, 0.5f);
+  with_bad.insert(with_bad.begin() + 3, makePoint(kNaN, 0, 1));
+  const Shared<KeyframePoints> mixed(with_bad);
+  VoxelMap other;
+  const VoxelMapUpdate update = other.addKeyframe(1, pose(Eigen::Vector3d(2, 0, 0)), mixed);
+  EXPECT_EQ(update.skipped_invalid, 1u);
+  ASSERT_FALSE(other.keyframePoints(1).sameValue(mixed));
+  ASSERT_EQ(other.keyframePoints(1)->size(), good->size());
+  for (size_t i = 0; i < good->size(); ++i)
+    EXPECT_EQ((*other.keyframePoints(1))[i].position, (*good)[i].position) << i;  // in order, the bad one out
+  const PointCloud a = map.exportCloud(), b = other.exportCloud();
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a.points[i], b.points[i]) << i;
+  EXPECT_INPUT_ERROR(map.keyframePoints(7), "keyframe 7", "not in the map");
 }
 
 }  // namespace

@@ -9,7 +9,9 @@
 // Residency: a view with a key (FusionView::key >= 0) has its depth, normal,
 // cost and colour uploaded once and kept while they fit the device budget
 // (least recently used evicted first, counted); unkeyed views are uploaded
-// for one call.
+// for one call. A map just estimated on the same GPU (setDeviceSource) is
+// copied on the device instead of uploaded. Device buffers of maps that left
+// are reused (no allocation per keyframe).
 #pragma once
 
 #include <cstddef>
@@ -30,11 +32,22 @@ struct FuserResources {
 };
 
 struct FuserCacheStats {
-  uint64_t uploads = 0;     // maps copied to the device
+  uint64_t uploads = 0;     // maps copied to the device (from the host or from device_copies)
+  uint64_t device_copies = 0;  // of those: depth, normal and cost copied on the device (setDeviceSource)
   uint64_t hits = 0;        // keyed maps found there
   uint64_t evictions = 0;   // keyed maps dropped to stay in the budget
   uint64_t forgotten = 0;   // keyed maps dropped by forget() / forgetAll()
   size_t resident_bytes = 0;
+};
+
+// Where the GPU fuser's time went: wall clock summed since construction
+// (zeros on the CPU), for the benchmark's stage split.
+struct FuserTimes {
+  uint64_t references = 0;  // reference views fused
+  double place_ms = 0;      // maps onto the device (uploads, device copies), "used" marks cleared
+  double check_ms = 0;      // consistency kernel, compaction and marks, until the GPU is done
+  double download_ms = 0;   // emitted points into pinned host memory
+  double convert_ms = 0;    // those into the caller's KeyframePoints
 };
 
 namespace fusion {
@@ -60,8 +73,15 @@ class DepthMapFuser {
   void forget(int64_t key);
   void forgetAll();
 
+  // The estimator's last outputs (DepthEstimator::lastDeviceOutputs): a view
+  // that borrows exactly those host images is copied from `map` on the
+  // device (its colour is still uploaded). An empty map clears it. The
+  // device memory must stay unchanged while set. No-op on the CPU.
+  void setDeviceSource(const DeviceDepthMap& map);
+
   Backend backend() const { return backend_; }
   FuserCacheStats cacheStats() const;
+  FuserTimes times() const;
 
  private:
   Backend backend_;

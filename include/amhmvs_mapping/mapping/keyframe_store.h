@@ -35,6 +35,7 @@
 
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
+#include "amhmvs_mapping/core/shared.h"
 #include "amhmvs_mapping/mapping/voxel_map.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 
@@ -76,8 +77,9 @@ struct StoredKeyframe {
   ImageU8 gray_image;
   const ImageU8& grayImage() const { return gray_image.empty() ? keyframe.image : gray_image; }
   std::vector<int64_t> sources;  // source keyframes chosen while pending
-  DepthMap depth;                // empty until attachDepth()
-  KeyframePoints points;         // dense points, camera frame; empty until attachPoints()
+  // Shared with the result that reported them and the voxel map (no copy).
+  Shared<DepthMap> depth;          // empty until attachDepth()
+  Shared<KeyframePoints> points;   // dense points, camera frame; empty until attachPoints()
   uint64_t pose_revision = 0;    // incremented by each updatePose()
   // Unique in the process for each attached depth map (0: none yet), so that
   // a cache of depth maps (the GPU fuser's) never confuses two of them, even
@@ -113,10 +115,12 @@ class KeyframeStore {
 
   // Attaches the keyframe's depth map and marks it done (its sources are
   // released). The depth image must have the camera's size; normal (3
-  // channels) and cost, when present, too. Returns evicted ids.
-  std::vector<int64_t> attachDepth(int64_t id, DepthMap depth);
-  // Attaches the keyframe's dense points (camera frame). Returns evicted ids.
-  std::vector<int64_t> attachPoints(int64_t id, KeyframePoints points);
+  // channels) and cost, when present, too. Returns evicted ids. The store
+  // shares the map with the caller (no copy).
+  std::vector<int64_t> attachDepth(int64_t id, Shared<DepthMap> depth);
+  // Attaches the keyframe's dense points (camera frame), shared. Returns
+  // evicted ids.
+  std::vector<int64_t> attachPoints(int64_t id, Shared<KeyframePoints> points);
 
   // Sets a new camera-to-world pose (pending or done keyframes). The sparse
   // points move rigidly with it (they were observed from this keyframe);

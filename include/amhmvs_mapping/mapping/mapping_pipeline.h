@@ -194,6 +194,7 @@ class MappingPipeline {
   // and the fuser's resident depth maps.
   Backend fusionBackend() const { return fuser_ ? Backend::kCuda : Backend::kCpu; }
   FuserCacheStats fusionCacheStats() const;
+  FuserTimes fusionTimes() const;  // the GPU fuser's time split (zeros on the CPU)
   const PipelineOptions& options() const { return options_; }
 
  private:
@@ -213,6 +214,12 @@ class MappingPipeline {
   FusionResult fuse(const std::vector<FusionView>& views, const FusionOptions& options);
   // Drops the GPU copies (estimator images, fuser depth maps) of evicted keyframes.
   void forgetEvicted(const std::vector<int64_t>& evicted);
+  // After a mapper call for keyframe `id`: records the fuser key of its depth
+  // map; the key of a map it replaced is forgotten.
+  void trackDepthKey(int64_t id);
+  // After an estimate: offers the GPU estimator's outputs to the fuser when
+  // `map` is that estimate's (not the CPU fallback's).
+  void offerDeviceOutputs(const DepthMap& map);
   void report(LogLevel level, const std::string& kind, const std::string& line);
   // Why the input outruns the estimator, measured (keyframe interval, time
   // per keyframe), and what to change: the end of the overload log lines.
@@ -228,8 +235,9 @@ class MappingPipeline {
   std::unique_ptr<DepthEstimator> estimator_, cpu_estimator_;
   std::unique_ptr<FallbackEstimator> fallback_;
   std::unique_ptr<DepthMapFuser> fuser_;  // fusion on the GPU when the estimator runs there
-  // Keyframe id -> the fuser key of its depth map resident on the GPU: a
-  // replaced (refined) map or an evicted keyframe's leaves the device at once.
+  // Keyframe id -> the fuser key of its depth map (FusionView::key, which is
+  // not the keyframe id): a replaced (refined) map or an evicted keyframe's
+  // leaves the device at once.
   std::map<int64_t, int64_t> fused_keys_;
   std::unique_ptr<OnlineMapper> mapper_;
 

@@ -138,7 +138,7 @@ struct FusedKeyframe {
   PinholeCamera camera;                 // the pose it was fused with
   std::vector<int64_t> consistency_ids;  // the other depth maps it was checked against
   bool again = false;                   // fused before (refined), with or without points: they are replaced
-  KeyframePoints points;                // fused points, camera frame
+  Shared<KeyframePoints> points;        // fused points, camera frame (shared with the store and the map)
   PublishedDepth published;             // with confidence.enabled: the depth map as published, its confidence
 };
 
@@ -177,7 +177,7 @@ struct KeyframeResult {
   SourceSelection selection;
   bool has_depth = false;        // false: no source view (yet), stored as a source only
   DepthRangeEstimate depth_range;  // when has_depth
-  DepthMap depth;                // when has_depth
+  Shared<DepthMap> depth;        // when has_depth (shared with the keyframe store)
   PinholeCamera camera;          // the keyframe's camera (pose used)
   // Every keyframe fused by this call, in fusion order (oldest waiting
   // first): earlier waiting keyframes that this depth map completed, and
@@ -292,7 +292,7 @@ class OnlineMapper {
   void noteEvicted(const std::vector<int64_t>& evicted, KeyframeResult* result);
 
   // Adds fused points to the map, in the background when so configured.
-  void addToMap(int64_t id, KeyframePoints points);
+  void addToMap(int64_t id, Shared<KeyframePoints> points);
   // After a change of the map in this thread: its voxel count and revision.
   void noteMapChanged();
 

@@ -2,7 +2,7 @@
 // points, updated incrementally when keyframes are added, removed or re-posed.
 //
 //   VoxelMap map(options);
-//   map.addKeyframe(id, camera_to_world, points);  // points in the camera frame
+//   map.addKeyframe(id, camera_to_world, points);  // points in the camera frame (shared, not copied)
 //   map.updatePose(id, new_camera_to_world);       // loop closure
 //   PointCloud cloud = map.exportCloud();          // one point per voxel, world
 //
@@ -40,6 +40,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "amhmvs_mapping/core/shared.h"
 #include "amhmvs_mapping/io/point_cloud_io.h"
 #include "amhmvs_mapping/mapping/keyframe_point.h"
 
@@ -75,9 +76,11 @@ class VoxelMap {
 
   // Adds keyframe `id`'s points (camera frame) at pose camera_to_world. An id
   // already in the map is replaced (its old contribution removed first).
+  // The map keeps the points for re-posing: shared with the caller when all
+  // of them are accepted (the usual case), else a copy of the accepted ones.
   // Throws InputError for a non-finite or non-rigid pose.
   VoxelMapUpdate addKeyframe(int64_t id, const Eigen::Isometry3d& camera_to_world,
-                             const KeyframePoints& points);
+                             Shared<KeyframePoints> points);
   // Removes keyframe `id`'s contribution; throws InputError for an unknown id.
   void removeKeyframe(int64_t id);
   // Moves keyframe `id`'s points to a new pose. Throws InputError for an
@@ -88,6 +91,9 @@ class VoxelMap {
   bool contains(int64_t id) const { return keyframes_.count(id) != 0; }
   // Pose of a keyframe in the map; throws InputError for an unknown id.
   const Eigen::Isometry3d& pose(int64_t id) const;
+  // The points kept for a keyframe (camera frame); throws InputError for an
+  // unknown id.
+  const Shared<KeyframePoints>& keyframePoints(int64_t id) const;
   std::vector<int64_t> keyframeIds() const;  // order of addition, oldest first
 
   // One point per voxel, world frame, voxels in ascending key order
@@ -121,7 +127,7 @@ class VoxelMap {
   struct KeyframeContribution {
     uint64_t sequence = 0;  // order of addition, key of order_
     Eigen::Isometry3d camera_to_world;
-    KeyframePoints points;       // accepted points, camera frame
+    Shared<KeyframePoints> points;  // accepted points, camera frame
     std::vector<uint64_t> keys;  // voxel of each accepted point
   };
   struct PlacedPoint {
@@ -163,7 +169,6 @@ class VoxelMap {
     std::vector<PlacedPoint> placed, removal_placed;
     KeyframeSums sums, removal_sums;
     std::vector<uint8_t> valid, shard_of_point;  // shard_of_point onwards: within sumPerVoxel only
-    std::vector<uint32_t> points_by_shard;
     std::vector<VoxelSums> per_shard[kShards];
     std::vector<uint64_t> index_keys[kShards];
     std::vector<int32_t> index_entries[kShards];
@@ -178,7 +183,7 @@ class VoxelMap {
   void removeContribution(const KeyframeContribution& contribution);
   // Adds a keyframe that is not in the map, evicting older ones as needed.
   VoxelMapUpdate insert(int64_t id, uint64_t sequence, const Eigen::Isometry3d& camera_to_world,
-                        const KeyframePoints& points);
+                        const Shared<KeyframePoints>& points);
   void evictOldest(VoxelMapUpdate* update);
   Eigen::Vector3d voxelCentre(uint64_t key) const;
 

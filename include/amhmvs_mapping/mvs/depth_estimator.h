@@ -97,6 +97,22 @@ struct DepthMap {
   size_t gpu_memory_bytes = 0;
 };
 
+// A depth map's depth, normal and cost in device memory (CUDA), so that a
+// consumer on the same GPU (DepthMapFuser) copies them there instead of
+// uploading the host copy. `host_*` name the host images those buffers
+// equal (the DepthMap an estimate returned): a consumer uses the device
+// copy only for a view that borrows exactly these images.
+struct DeviceDepthMap {
+  const float* host_depth = nullptr;
+  const float* host_normal = nullptr;
+  const float* host_cost = nullptr;
+  const float* depth = nullptr;   // device, width x height
+  const float* normal = nullptr;  // device, 3 x width x height
+  const float* cost = nullptr;    // device, width x height
+  int width = 0, height = 0;
+  bool empty() const { return depth == nullptr; }
+};
+
 // Machine resources of an estimator (not of the algorithm: results do not
 // depend on them).
 struct EstimatorResources {
@@ -150,6 +166,10 @@ class DepthEstimator {
   void forget(int64_t key);
   void forgetAll();
   DeviceCacheStats deviceCacheStats() const;
+  // CUDA: the last estimate's outputs on the device, valid until this
+  // estimator's next estimate (empty on the CPU, before the first estimate
+  // and after one that failed).
+  DeviceDepthMap lastDeviceOutputs() const;
 
   Backend backend() const { return backend_; }
   const PatchMatchOptions& options() const { return options_; }
