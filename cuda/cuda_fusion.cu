@@ -48,6 +48,20 @@ __global__ void fuseKernel(ViewData ref, const ViewData* sources, int source_cou
   }
 }
 
+// Agreement counts of every reference pixel (depth_confidence.h), 0 where it
+// has no usable estimate.
+__global__ void agreementKernel(ViewData ref, const ViewData* sources, int source_count, Checks checks,
+                                uint8_t* seen, uint8_t* agreeing) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= ref.width || y >= ref.height) return;
+  int seen_count = 0, agreeing_count = 0;
+  countAgreement(ref, sources, source_count, checks, x, y, &seen_count, &agreeing_count);
+  const int pixel = ref.pixelIndex(x, y);
+  seen[pixel] = static_cast<uint8_t>(min(seen_count, 255));
+  agreeing[pixel] = static_cast<uint8_t>(min(agreeing_count, 255));
+}
+
 // The marks of one reference: its emitted pixels and the source pixels that
 // agreed with them (applied after the reference, as on the CPU).
 __global__ void markKernel(int pixel_count, const uint8_t* emitted, const int* support,
@@ -121,29 +135,15 @@ class CudaReferenceFusion : public ReferenceFusion {
     const cudaStream_t stream = stream_.get();
     const ViewData ref = data(reference);
     const int count = static_cast<int>(sources.size());
-    std::vector<ViewData> source_data;
-    std::vector<uint8_t*> source_used;
-    for (int s : sources) {
-      source_data.push_back(data(s));
-      source_used.push_back(marking_ ? used_[s].get() : nullptr);
-    }
     const size_t pixels = static_cast<size_t>(ref.width) * ref.height;
     const bool marking = marking_;
-    sources_.reserve(std::max(count, 1));
-    source_used_.reserve(std::max(count, 1));
+    uploadSources(sources);
     pixels_.reserve(pixels);
     compact_.reserve(pixels);
     emitted_.reserve(pixels);
     if (marking) support_.reserve(pixels * std::max(count, 1));
     candidates_.reserve(1);
     selected_.reserve(1);
-    // Small, pageable: the copies complete before the calls return.
-    if (count > 0) {
-      AMHMVS_CUDA_CHECK(cudaMemcpyAsync(sources_.get(), source_data.data(), count * sizeof(ViewData),
-                                        cudaMemcpyHostToDevice, stream));
-      AMHMVS_CUDA_CHECK(cudaMemcpyAsync(source_used_.get(), source_used.data(), count * sizeof(uint8_t*),
-                                        cudaMemcpyHostToDevice, stream));
-    }
     AMHMVS_CUDA_CHECK(cudaMemsetAsync(candidates_.get(), 0, candidates_.bytes(), stream));
 
     const dim3 block(kBlock, kBlock);
@@ -195,6 +195,27 @@ class CudaReferenceFusion : public ReferenceFusion {
     return static_cast<size_t>(candidates);
   }
 
+  AgreementCounts countAgreement(int reference, const std::vector<int>& sources) override {
+    const Clock::time_point start = Clock::now();
+    const cudaStream_t stream = stream_.get();
+    const ViewData ref = data(reference);
+    const int count = static_cast<int>(sources.size());
+    uploadSources(sources);
+    const size_t pixels = static_cast<size_t>(ref.width) * ref.height;
+    seen_.reserve(pixels);
+    agreeing_.reserve(pixels);
+    const dim3 block(kBlock, kBlock);
+    const dim3 grid((ref.width + kBlock - 1) / kBlock, (ref.height + kBlock - 1) / kBlock);
+    agreementKernel<<<grid, block, 0, stream>>>(ref, sources_.get(), count, checks_, seen_.get(), agreeing_.get());
+    AMHMVS_CUDA_CHECK_LAUNCH();
+    AgreementCounts counts{ImageU8(ref.width, ref.height), ImageU8(ref.width, ref.height)};
+    seen_.downloadAsync(counts.seen.data.data(), pixels, stream);
+    agreeing_.downloadAsync(counts.agreeing.data.data(), pixels, stream);
+    AMHMVS_CUDA_CHECK(cudaStreamSynchronize(stream));
+    times_.agreement_ms += millisecondsSince(start);
+    return counts;
+  }
+
   FuserTimes times() const override { return times_; }
 
   FuserCacheStats cacheStats() const override {
@@ -221,6 +242,26 @@ class CudaReferenceFusion : public ReferenceFusion {
   void setDeviceSource(const DeviceDepthMap& map) override { device_source_ = map; }
 
  private:
+  // The sources' view data (and their "used" marks when marking) onto the
+  // device for the next kernel on the stream.
+  void uploadSources(const std::vector<int>& sources) {
+    const int count = static_cast<int>(sources.size());
+    std::vector<ViewData> source_data;
+    std::vector<uint8_t*> source_used;
+    for (int s : sources) {
+      source_data.push_back(data(s));
+      source_used.push_back(marking_ ? used_[s].get() : nullptr);
+    }
+    sources_.reserve(std::max(count, 1));
+    source_used_.reserve(std::max(count, 1));
+    if (count == 0) return;
+    // Small, pageable: the copies complete before the calls return.
+    AMHMVS_CUDA_CHECK(cudaMemcpyAsync(sources_.get(), source_data.data(), count * sizeof(ViewData),
+                                      cudaMemcpyHostToDevice, stream_.get()));
+    AMHMVS_CUDA_CHECK(cudaMemcpyAsync(source_used_.get(), source_used.data(), count * sizeof(uint8_t*),
+                                      cudaMemcpyHostToDevice, stream_.get()));
+  }
+
   ViewData data(int index) const {
     const DeviceMaps& m = *maps_[index];
     return viewData(*views_[index], m.depth.get(), m.normal.get(), m.cost.get(), m.color.get(),
@@ -321,6 +362,7 @@ class CudaReferenceFusion : public ReferenceFusion {
   cuda::DeviceBuffer<uint8_t*> source_used_;
   cuda::DeviceBuffer<FusedPoint> pixels_, compact_;
   cuda::DeviceBuffer<uint8_t> emitted_;
+  cuda::DeviceBuffer<uint8_t> seen_, agreeing_;  // agreement counts
   cuda::DeviceBuffer<int> support_;
   bool marking_ = false;
   cuda::DeviceBuffer<unsigned long long> candidates_;

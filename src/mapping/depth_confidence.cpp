@@ -29,15 +29,7 @@ bool hasDepth(float depth) { return std::isfinite(depth) && depth > 0; }
 
 AgreementCounts countAgreement(const FusionView& reference, const std::vector<FusionView>& views,
                                const FusionOptions& checks) {
-  // Validated as fusion would read them: the reference with the others as sources.
-  std::vector<FusionView> all = views;
-  for (FusionView& view : all) view.source_ids.clear();
-  FusionView ref = reference;
-  ref.source_ids.clear();
-  for (const FusionView& view : views) ref.source_ids.push_back(view.id);
-  all.push_back(ref);
-  fusion::checkViews(all, checks);
-
+  fusion::agreementViews(reference, views, checks);  // validation only
   fusion::Checks pixel_checks = fusion::checks(checks);
   pixel_checks.skip_used = false;  // every view counts, whatever was fused before
   const fusion::ViewData ref_data = viewData(reference);
@@ -86,9 +78,11 @@ ImageF maskDepth(const ImageViewF& depth, const ImageViewF& confidence, float mi
 }
 
 PublishedDepth publishDepth(const FusionView& reference, const std::vector<FusionView>& views,
-                            const ConfidenceOptions& options, const ConfidenceCalibration& calibration) {
+                            const ConfidenceOptions& options, const ConfidenceCalibration& calibration,
+                            const AgreementFunction& count) {
   PublishedDepth published;
-  published.counts = countAgreement(reference, views, calibration.checks);
+  published.counts = count ? count(reference, views, calibration.checks)
+                           : countAgreement(reference, views, calibration.checks);
   published.confidence = calibratedConfidence(published.counts, reference.depth, reference.cost, calibration);
   published.depth = maskDepth(reference.depth, published.confidence, options.min_probability);
   published.min_probability = options.min_probability;

@@ -20,6 +20,20 @@ FusionResult DepthMapFuser::fuse(const std::vector<FusionView>& views, const Fus
   return fusion::runFusion(views, options, cuda_.get());
 }
 
+AgreementCounts DepthMapFuser::countAgreement(const FusionView& reference, const std::vector<FusionView>& views,
+                                              const FusionOptions& checks) {
+  if (!cuda_) return amhmvs::countAgreement(reference, views, checks);
+  const std::vector<FusionView> all = fusion::agreementViews(reference, views, checks);
+  std::vector<const FusionView*> pointers;
+  std::vector<int> sources;
+  for (const FusionView& view : all) pointers.push_back(&view);
+  for (int k = 0; k + 1 < static_cast<int>(all.size()); ++k) sources.push_back(k);
+  FusionOptions counting = checks;
+  counting.fuse_each_pixel_once = false;  // every view counts, whatever was fused before
+  cuda_->begin(pointers, counting);
+  return cuda_->countAgreement(static_cast<int>(all.size()) - 1, sources);
+}
+
 void DepthMapFuser::forget(int64_t key) {
   if (cuda_) cuda_->forget(key);
 }

@@ -198,6 +198,18 @@ void appendPoints(const FusedPoint* points, size_t count, KeyframePoints* out) {
   convertPoints(points, count, out->data() + first);
 }
 
+std::vector<FusionView> agreementViews(const FusionView& reference, const std::vector<FusionView>& views,
+                                       const FusionOptions& checks) {
+  std::vector<FusionView> all = views;
+  for (FusionView& view : all) view.source_ids.clear();
+  FusionView ref = reference;
+  ref.source_ids.clear();
+  for (const FusionView& view : views) ref.source_ids.push_back(view.id);
+  all.push_back(std::move(ref));
+  checkViews(all, checks);
+  return all;
+}
+
 FusionResult runFusion(const std::vector<FusionView>& input, const FusionOptions& options,
                        ReferenceFusion* backend) {
   checkViews(input, options);

@@ -9,6 +9,7 @@
 
 #include <memory>
 
+#include "amhmvs_mapping/mapping/depth_confidence.h"
 #include "amhmvs_mapping/mapping/depth_map_fuser.h"
 #include "amhmvs_mapping/mapping/fusion.h"
 #include "amhmvs_mapping/mapping/fusion_pixel.h"
@@ -32,6 +33,13 @@ class ReferenceFusion {
   // Drops the resident maps of `key` (no-op when none) or of every key.
   virtual void forget(int64_t key) { (void)key; }
   virtual void forgetAll() {}
+  // Agreement counts (depth_confidence.h) of views[reference] against
+  // views[sources] under begin's options (which mark nothing).
+  virtual AgreementCounts countAgreement(int reference, const std::vector<int>& sources) {
+    (void)reference;
+    (void)sources;
+    return {};
+  }
   // A map whose depth, normal and cost are on the device already (see
   // DepthMapFuser::setDeviceSource).
   virtual void setDeviceSource(const DeviceDepthMap& map) { (void)map; }
@@ -46,6 +54,12 @@ void checkViews(const std::vector<FusionView>& views, const FusionOptions& optio
 
 FusionResult runFusion(const std::vector<FusionView>& views, const FusionOptions& options,
                        ReferenceFusion* backend);
+
+// The views of an agreement count (depth_confidence.h), validated as fusion
+// would read them: `views` without their source ids, then `reference` with
+// all of them as its sources (last). Throws InputError like checkViews.
+std::vector<FusionView> agreementViews(const FusionView& reference, const std::vector<FusionView>& views,
+                                       const FusionOptions& checks);
 
 // The camera of a view in the check's form, with the given maps (host or
 // device pointers).

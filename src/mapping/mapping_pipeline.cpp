@@ -162,7 +162,9 @@ void MappingPipeline::init(EstimateFunction primary, EstimateFunction fallback, 
   const auto fuse = [this](const std::vector<FusionView>& views, const FusionOptions& options) {
     return this->fuse(views, options);
   };
-  mapper_.reset(new OnlineMapper(options_.mapper, estimate, fuse));
+  const auto agree = [this](const FusionView& reference, const std::vector<FusionView>& views,
+                            const FusionOptions& checks) { return this->agree(reference, views, checks); };
+  mapper_.reset(new OnlineMapper(options_.mapper, estimate, fuse, agree));
 }
 
 void MappingPipeline::forgetEvicted(const std::vector<int64_t>& evicted) {
@@ -209,6 +211,21 @@ FusionResult MappingPipeline::fuse(const std::vector<FusionView>& views, const F
     }
   }
   return fuseDepthMaps(views, options);
+}
+
+AgreementCounts MappingPipeline::agree(const FusionView& reference, const std::vector<FusionView>& views,
+                                      const FusionOptions& checks) {
+  if (fuser_) {
+    try {
+      return fuser_->countAgreement(reference, views, checks);
+    } catch (const BackendError& e) {
+      report(LogLevel::kError, "fusion", std::string("confidence on the GPU failed (") + e.what() +
+                                             "), this keyframe's is counted on the CPU");
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.fusion_cpu_fallbacks;
+    }
+  }
+  return countAgreement(reference, views, checks);
 }
 
 void MappingPipeline::report(LogLevel level, const std::string& kind, const std::string& line) {

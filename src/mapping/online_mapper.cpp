@@ -82,10 +82,12 @@ std::string OnlineMapperOptions::validate() const {
   return out.str();
 }
 
-OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction estimate, FuseFunction fuse)
+OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction estimate, FuseFunction fuse,
+                           AgreementFunction agree)
     : options_(options),
       estimate_(std::move(estimate)),
       fuse_(fuse ? std::move(fuse) : FuseFunction(fuseDepthMaps)),
+      agree_(std::move(agree)),
       store_(options.store),
       map_(options.map) {
   const std::string problems = options.validate();
@@ -377,7 +379,8 @@ PublishedDepth OnlineMapper::publish(int64_t id, const std::vector<int64_t>& vie
   const StoredKeyframe& stored = store_.entry(id);
   if (!hasDepthAndNormals(stored)) return {};
   const std::vector<FusionView> views = consistencyFusionViews(store_, view_ids);
-  return publishDepth(fusionView(static_cast<int>(views.size()), stored), views, options_.confidence);
+  return publishDepth(fusionView(static_cast<int>(views.size()), stored), views, options_.confidence,
+                      defaultConfidenceCalibration(), agree_);
 }
 
 KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& view_ids) const {

@@ -295,14 +295,15 @@ std::string pipelineTable(int keyframe_count) {
          "with a depth map (estimate: the estimator's wall time; fusion and map: the fusions and map updates "
          "this keyframe's step did).\n\n"
       << "| sources | estimate / fusion backend | keyframes/s | median total ms | selection | depth range | problem | estimate "
-         "| (estimator's own) | store | fusion | map (waiting for it) | map update (background) | rest | device images: uploads / hits / evictions "
+         "| (estimator's own) | store | fusion | confidence | map (waiting for it) | map update (background) | rest | device images: uploads / hits / evictions "
          "| fused maps: uploads (of them copied on the GPU) / hits |\n"
-      << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+      << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   const std::vector<Keyframe> keyframes = roomKeyframes(keyframe_count, 640, 480, 1);
   std::string splits;  // after the table
   for (int sources : {4, 8}) {
     MappingPipeline pipeline(pipelineOptions(sources));
-    std::vector<double> totals, selection, range, problem, estimate, own, store, fusion, map, rest, map_background;
+    std::vector<double> totals, selection, range, problem, estimate, own, store, fusion, confidence, map, rest,
+        map_background;
     const auto start = std::chrono::steady_clock::now();
     // A camera-rate stream keeps the next keyframe waiting while one is
     // processed: push keyframe k + 1, then step() (which processes keyframe
@@ -312,13 +313,14 @@ std::string pipelineTable(int keyframe_count) {
       const Keyframe& keyframe = keyframes[k];
       const auto pushed = std::chrono::steady_clock::now();
       if (k + 1 < keyframes.size()) pipeline.push(keyframes[k + 1]);
-      double stored = 0, fused = 0, mapped = 0;
+      double stored = 0, fused = 0, confident = 0, mapped = 0;
       const StageTimes* times = nullptr;
       // One step per keyframe: the keyframe (and a late one if due).
       const std::vector<PipelineOutput> outputs = pipeline.step();
       for (const PipelineOutput& output : outputs) {
         stored += output.result.times.store_ms;
         fused += output.result.times.fusion_ms;
+        confident += output.result.times.confidence_ms;
         mapped += output.result.times.map_ms;
         if (output.result.id == keyframe.id && output.result.has_depth) times = &output.result.times;
       }
@@ -335,18 +337,19 @@ std::string pipelineTable(int keyframe_count) {
       }
       store.push_back(stored);
       fusion.push_back(fused);
+      confidence.push_back(confident);
       map.push_back(mapped);
       rest.push_back(total - times->selection_ms - times->depth_range_ms - times->problem_ms - times->estimate_ms -
-                     stored - fused - mapped);
+                     stored - fused - confident - mapped);
     }
     const double seconds = millisecondsSince(start) / 1000.0;
     const PipelineStats stats = pipeline.stats();
     const FuserCacheStats fused_maps = pipeline.fusionCacheStats();
     char line[500];
     std::snprintf(line, sizeof(line),
-                  "| %d | %s | %.1f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %s | %lu (%lu) / %lu |\n", sources,
+                  "| %d | %s | %.1f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %s | %lu (%lu) / %lu |\n", sources,
                   (stats.backend + " / " + backendName(pipeline.fusionBackend())).c_str(), keyframes.size() / seconds, median(totals), median(selection), median(range),
-                  median(problem), median(estimate), median(own), median(store), median(fusion), median(map), median(map_background), median(rest),
+                  median(problem), median(estimate), median(own), median(store), median(fusion), median(confidence), median(map), median(map_background), median(rest),
                   cacheSummary(pipeline.deviceCacheStats()).c_str(), static_cast<unsigned long>(fused_maps.uploads),
                   static_cast<unsigned long>(fused_maps.device_copies), static_cast<unsigned long>(fused_maps.hits));
     out << line;
@@ -356,9 +359,9 @@ std::string pipelineTable(int keyframe_count) {
       const double n = static_cast<double>(fuser.references);
       std::snprintf(line, sizeof(line),
                     "\n%d sources, GPU fusion per reference (mean of %lu): %.2f ms maps onto the device, %.2f check, "
-                    "%.2f download, %.2f into KeyframePoints\n\n",
+                    "%.2f download, %.2f into KeyframePoints; agreement counts (confidence) %.2f ms in all\n\n",
                     sources, static_cast<unsigned long>(fuser.references), fuser.place_ms / n, fuser.check_ms / n,
-                    fuser.download_ms / n, fuser.convert_ms / n);
+                    fuser.download_ms / n, fuser.convert_ms / n, fuser.agreement_ms);
       splits += line;
       std::fprintf(stderr, "%s", line);
     }

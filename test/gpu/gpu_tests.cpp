@@ -13,7 +13,8 @@
 //    keys, budget, evictions, forget();
 //  - fusion on the GPU (DepthMapFuser) against the CPU's fuseDepthMaps on
 //    noisy room depth maps: one reference, and every view a reference with
-//    "each pixel once" marks; resident maps, budget and evictions;
+//    "each pixel once" marks; resident maps, budget and evictions; the
+//    confidence's agreement counts against the CPU's;
 //  - a small scene for compute-sanitizer (--sanitize).
 //
 // usage: amhmvs_gpu_tests DATA_DIR [--sanitize] [--skip-cpu-fountain]
@@ -33,6 +34,7 @@
 #include "amhmvs_mapping/eval/depth_metrics.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/mapping/depth_confidence.h"
 #include "amhmvs_mapping/mapping/depth_map_fuser.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mvs/cpu_sampler.h"
@@ -614,6 +616,39 @@ void gpuFusion(int width, int height) {
          text);
 }
 
+// The confidence's agreement counts on the GPU (DepthMapFuser::countAgreement,
+// the kernel over resident maps) against the CPU loop: the same per-pixel
+// check, so the counts differ at most where a test lands within rounding of
+// its threshold; the second call finds every map resident.
+void gpuAgreement(int width, int height) {
+  const NoisyRoom room(6, width, height);
+  const FusionOptions checks = defaultConfidenceCalibration().checks;
+  std::vector<FusionView> views;
+  for (int i = 1; i < 6; ++i) views.push_back(room.view(i, {}, i));
+  const FusionView reference = room.view(0, {}, 0);
+  const AgreementCounts cpu = countAgreement(reference, views, checks);
+  DepthMapFuser fuser(Backend::kCuda);
+  const AgreementCounts gpu = fuser.countAgreement(reference, views, checks);
+  const AgreementCounts again = fuser.countAgreement(reference, views, checks);
+  size_t differing = 0, seen = 0, repeat = 0;
+  for (size_t i = 0; i < cpu.seen.data.size(); ++i) {
+    differing += cpu.seen.data[i] != gpu.seen.data[i] || cpu.agreeing.data[i] != gpu.agreeing.data[i];
+    repeat += gpu.seen.data[i] != again.seen.data[i] || gpu.agreeing.data[i] != again.agreeing.data[i];
+    seen += cpu.seen.data[i] > 0;
+  }
+  const FuserCacheStats stats = fuser.cacheStats();
+  char text[300];
+  std::snprintf(text, sizeof(text),
+                "GPU agreement counts %dx%d: %zu pixels seen by another view, %.4f %% differ from the CPU "
+                "(<= 0.05 %%), again identical: %s, uploads %lu, hits %lu, %.2f ms for both calls",
+                width, height, seen, 100.0 * differing / cpu.seen.data.size(), repeat == 0 ? "yes" : "no",
+                static_cast<unsigned long>(stats.uploads), static_cast<unsigned long>(stats.hits),
+                fuser.times().agreement_ms);
+  expect(seen > cpu.seen.data.size() / 2 && differing * 2000 <= cpu.seen.data.size() && repeat == 0 &&
+             stats.uploads == 6 && stats.hits == 6,
+         text);
+}
+
 // Fusion reading the estimator's outputs on the device (the pipeline's path:
 // DepthEstimator::lastDeviceOutputs, DepthMapFuser::setDeviceSource) gives
 // exactly the points of uploading the same depth map from the host; views
@@ -705,6 +740,7 @@ int main(int argc, char** argv) {
       for (int id : {0, 1, 2, 3, 9, 10}) pooled.estimate(fountain.images.makeProblem(id));
       expect(pooled.deviceCacheStats().evictions > 0, "sanitizer: resident pool with evictions ran");
       gpuFusion(96, 72);
+      gpuAgreement(96, 72);
       fusionFromEstimatorOutputs(data, 96);
       return failures ? 1 : 0;
     }
@@ -714,6 +750,7 @@ int main(int argc, char** argv) {
     determinism(data);
     residentPool(data);
     gpuFusion(640, 480);
+    gpuAgreement(640, 480);
     fusionFromEstimatorOutputs(data, 384);
     middlebury(data, Backend::kCuda, true);
     middlebury(data, Backend::kCpu, false);

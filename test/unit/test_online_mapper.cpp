@@ -133,6 +133,32 @@ TEST(OnlineMapper, FusedKeyframesCarryTheirConfidenceAndPublishedDepth) {
   }
 }
 
+// The confidence counts with the injected agreement function (the pipeline's
+// fuser: the GPU's kernel when it fuses there), once per fused keyframe.
+TEST(OnlineMapper, ConfidenceCountsWithTheInjectedAgreementFunction) {
+  int calls = 0;
+  const AgreementFunction agree = [&calls](const FusionView& reference, const std::vector<FusionView>& views,
+                                           const FusionOptions& checks) {
+    ++calls;
+    return countAgreement(reference, views, checks);
+  };
+  OnlineMapper mapper(wallOptions(), wallDepth, FuseFunction(), agree);
+  OnlineMapper reference_mapper(wallOptions(), wallDepth);
+  size_t fused_count = 0;
+  for (int64_t id = 0; id < 5; ++id) {
+    const KeyframeResult result = mapper.process(keyframeAt(id, 0.5 * id));
+    const KeyframeResult expected = reference_mapper.process(keyframeAt(id, 0.5 * id));
+    ASSERT_EQ(result.fused.size(), expected.fused.size());
+    for (size_t k = 0; k < result.fused.size(); ++k) {
+      EXPECT_EQ(result.fused[k].published.counts.agreeing.data, expected.fused[k].published.counts.agreeing.data);
+      EXPECT_EQ(result.fused[k].published.confidence.data, expected.fused[k].published.confidence.data);
+    }
+    fused_count += result.fused.size();
+  }
+  EXPECT_EQ(calls, static_cast<int>(fused_count));
+  EXPECT_EQ(fused_count, 4u);
+}
+
 // One buffer per keyframe: the depth map of a result is the store's, and its
 // fused points are the store's and the map's (no copies on the way).
 TEST(OnlineMapper, ResultsShareTheirDepthMapAndPointsWithTheStoreAndTheMap) {

@@ -15,6 +15,7 @@
 // with depth maps); a refined keyframe is fused again and gets a new one.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -46,10 +47,14 @@ struct AgreementCounts {
 };
 
 // Counts for `reference` against `views` (FusionView::source_ids are
-// ignored) under `checks`. Throws InputError like fuseDepthMaps for views it
-// cannot read.
+// ignored) under `checks`, on the CPU. Throws InputError like fuseDepthMaps
+// for views it cannot read. (DepthMapFuser::countAgreement: the same where
+// the fuser runs, e.g. on the GPU from its resident maps.)
 AgreementCounts countAgreement(const FusionView& reference, const std::vector<FusionView>& views,
                                const FusionOptions& checks);
+// The counting the online mapper calls (countAgreement, or a fuser's).
+using AgreementFunction =
+    std::function<AgreementCounts(const FusionView&, const std::vector<FusionView>&, const FusionOptions&)>;
 
 // The calibrated confidence of each pixel (0 where `depth` has no positive
 // finite value); `cost` may be empty (then the lowest cost bin).
@@ -68,9 +73,11 @@ struct PublishedDepth {
   bool empty() const { return depth.empty(); }
 };
 
-// countAgreement, calibratedConfidence and maskDepth in one.
+// The counts (under calibration.checks), calibratedConfidence and maskDepth
+// in one; `count` defaults to countAgreement.
 PublishedDepth publishDepth(const FusionView& reference, const std::vector<FusionView>& views,
                             const ConfidenceOptions& options,
-                            const ConfidenceCalibration& calibration = defaultConfidenceCalibration());
+                            const ConfidenceCalibration& calibration = defaultConfidenceCalibration(),
+                            const AgreementFunction& count = AgreementFunction());
 
 }  // namespace amhmvs

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "amhmvs_mapping/mapping/depth_confidence.h"
 #include "amhmvs_mapping/mapping/fusion.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 
@@ -48,6 +49,7 @@ struct FuserTimes {
   double check_ms = 0;      // consistency kernel, compaction and marks, until the GPU is done
   double download_ms = 0;   // emitted points into pinned host memory
   double convert_ms = 0;    // those into the caller's KeyframePoints
+  double agreement_ms = 0;  // countAgreement's kernel and download (confidence)
 };
 
 namespace fusion {
@@ -67,6 +69,11 @@ class DepthMapFuser {
   // (e.g. out of memory), after which the fuser can still be used.
   FusionResult fuse(const std::vector<FusionView>& views, const FusionOptions& options);
 
+  // depth_confidence.h's countAgreement where the fuser runs: on the GPU
+  // from the resident maps (views with keys just fused are not uploaded
+  // again), on the CPU that function. Same InputErrors; BackendError as fuse.
+  AgreementCounts countAgreement(const FusionView& reference, const std::vector<FusionView>& views,
+                                 const FusionOptions& checks);
   // The maps under `key` (a depth map that was replaced or whose keyframe
   // left the store) or under every key leave the device now, not when the
   // budget pushes them out. No-op on the CPU and for unknown keys.

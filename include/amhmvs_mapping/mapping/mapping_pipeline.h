@@ -211,6 +211,9 @@ class MappingPipeline {
   bool run(Work work, int64_t id, const std::function<bool(KeyframeResult*)>& call,
            std::vector<PipelineOutput>* outputs, double queue_wait_ms);
   void account(const PipelineOutput& output);
+  // The confidence's agreement counts where fusion runs (GPU, CPU fallback counted as fusion's).
+  AgreementCounts agree(const FusionView& reference, const std::vector<FusionView>& views,
+                        const FusionOptions& checks);
   FusionResult fuse(const std::vector<FusionView>& views, const FusionOptions& options);
   // Drops the GPU copies (estimator images, fuser depth maps) of evicted keyframes.
   void forgetEvicted(const std::vector<int64_t>& evicted);

@@ -193,8 +193,11 @@ struct KeyframeResult {
 class OnlineMapper {
  public:
   // Throws InputError when the options are invalid or estimate is empty.
-  // Without a fuse function the mapper fuses with fuseDepthMaps (CPU).
-  OnlineMapper(const OnlineMapperOptions& options, EstimateFunction estimate, FuseFunction fuse = FuseFunction());
+  // Without a fuse function the mapper fuses with fuseDepthMaps (CPU);
+  // without an agreement function the confidence counts with countAgreement
+  // (CPU).
+  OnlineMapper(const OnlineMapperOptions& options, EstimateFunction estimate, FuseFunction fuse = FuseFunction(),
+               AgreementFunction agree = AgreementFunction());
   ~OnlineMapper();  // waits for a map update in the background
   OnlineMapper(const OnlineMapper&) = delete;
   OnlineMapper& operator=(const OnlineMapper&) = delete;
@@ -299,6 +302,7 @@ class OnlineMapper {
   OnlineMapperOptions options_;
   EstimateFunction estimate_;
   FuseFunction fuse_;
+  AgreementFunction agree_;
   KeyframeStore store_;
   VoxelMap map_;
   // The map update in the background (at most one) and what finished.
