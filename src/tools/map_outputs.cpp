@@ -28,7 +28,7 @@ const std::vector<std::pair<const char*, double StageTimes::*>>& stageFields() {
   static const std::vector<std::pair<const char*, double StageTimes::*>> fields = {
       {"queue_wait_ms", &StageTimes::queue_wait_ms}, {"selection_ms", &StageTimes::selection_ms},
       {"depth_range_ms", &StageTimes::depth_range_ms}, {"problem_ms", &StageTimes::problem_ms},
-      {"estimate_ms", &StageTimes::estimate_ms},     {"fusion_ms", &StageTimes::fusion_ms},
+      {"pose_refinement_ms", &StageTimes::pose_refinement_ms}, {"estimate_ms", &StageTimes::estimate_ms},     {"fusion_ms", &StageTimes::fusion_ms},
       {"map_ms", &StageTimes::map_ms},               {"total_ms", &StageTimes::total_ms}};
   return fields;
 }
@@ -144,6 +144,41 @@ Cell idListCell(const std::string& name, const std::vector<int64_t>& ids) {
   return cell;
 }
 
+// What the pose refinement did (empty / null when it did not run): sources
+// refined and rejected, inliers, reprojection RMS before and after (pixels),
+// the largest correction.
+std::vector<Cell> poseRefinementCells(const PoseRefinementResult& pose) {
+  int inliers = 0;
+  for (const SourcePoseRefinement& source : pose.sources)
+    if (source.outcome == SourcePoseOutcome::kRefined) inliers += source.inliers;
+  const bool ran = pose.ran;
+  return {numberCell("pose_sources_refined", ran ? pose.refinedCount() : NAN),
+          numberCell("pose_sources_rejected", ran ? pose.rejectedCount() : NAN),
+          numberCell("pose_inliers", ran ? inliers : NAN),
+          numberCell("pose_rms_before_px", ran ? pose.rmsBeforePx() : NAN),
+          numberCell("pose_rms_after_px", ran ? pose.rmsAfterPx() : NAN),
+          numberCell("pose_correction_mm", ran ? 1000 * pose.maxCorrectionM() : NAN),
+          numberCell("pose_correction_deg", ran ? pose.maxCorrectionDeg() : NAN)};
+}
+
+// Per source (JSON only): matches, inliers, RMS, correction, outcome.
+std::string poseSourcesJson(const PoseRefinementResult& pose) {
+  std::string list;
+  for (const SourcePoseRefinement& source : pose.sources) {
+    JsonFields fields;
+    fields.add("id", std::to_string(source.key));
+    fields.add("matches", std::to_string(source.matches));
+    fields.add("inliers", std::to_string(source.inliers));
+    fields.add("rms_before_px", number(source.rms_before_px));
+    fields.add("rms_after_px", number(source.rms_after_px));
+    fields.add("correction_mm", number(1000 * source.correction_m));
+    fields.add("correction_deg", number(source.correction_deg));
+    fields.add("outcome", quoted(sourcePoseOutcomeName(source.outcome)));
+    list += (list.empty() ? "" : ", ") + fields.object();
+  }
+  return "[" + list + "]";
+}
+
 // The row of one result: identity, sources, depth range, stage times, fusion.
 std::vector<Cell> resultCells(const KeyframeResult& result, const PosedFrame* frame) {
   const bool depth = result.has_depth;
@@ -161,6 +196,7 @@ std::vector<Cell> resultCells(const KeyframeResult& result, const PosedFrame* fr
       textCell("backend", depth ? backendName(result.depth.backend) : "")};
   for (const auto& field : stageFields()) cells.push_back(numberCell(field.first, result.times.*field.second));
   cells.push_back(numberCell("estimator_ms", depth ? result.depth.milliseconds : NAN));
+  for (const Cell& cell : poseRefinementCells(result.pose_refinement)) cells.push_back(cell);
   std::vector<int64_t> fused_ids;
   size_t fused_points = 0;
   for (const FusedKeyframe& fused : result.fused) {
@@ -294,6 +330,7 @@ void MapOutputs::write(const Row& row) {
   std::vector<Cell> cells = resultCells(result, frame);
   JsonFields json;
   for (const Cell& cell : cells) json.add(cell.name, cell.json);
+  json.add("pose_refinement_sources", poseSourcesJson(result.pose_refinement));
   json.add("accuracy", has_truth ? accuracyFields(comparison).object() : "null");
   for (const Cell& cell : accuracyCells(has_truth ? &comparison : nullptr)) cells.push_back(cell);
   for (size_t i = 0; i < cells.size(); ++i) std::fprintf(csv_, "%s%s", i ? "," : "", cells[i].csv.c_str());
