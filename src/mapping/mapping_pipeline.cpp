@@ -162,6 +162,9 @@ void MappingPipeline::init(EstimateFunction primary, EstimateFunction fallback, 
     return this->fuse(views, options);
   };
   mapper_.reset(new OnlineMapper(options_.mapper, estimate, fuse));
+  if (options_.mapper.pose_refinement.enabled && !PoseRefiner::available())
+    report(LogLevel::kWarn, "pose_refinement", std::string(PoseRefiner::unavailableMessage()) +
+                                                   ": the sources' poses are the tracker's, unrefined");
 }
 
 void MappingPipeline::forgetEvicted(const std::vector<int64_t>& evicted) {

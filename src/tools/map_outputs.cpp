@@ -323,6 +323,11 @@ void MapOutputs::write(const Row& row) {
     total_ms_.push_back(result.times.total_ms);
     estimate_ms_.push_back(result.times.estimate_ms);
   }
+  if (result.pose_refinement.ran) {
+    pose_refinement_ms_.push_back(result.times.pose_refinement_ms);
+    for (const SourcePoseRefinement& source : result.pose_refinement.sources)
+      ++pose_outcomes_[sourcePoseOutcomeName(source.outcome)];
+  }
   writeFiles(result);
   DepthComparison comparison;
   const bool has_truth = compareWithTruth(result, frame, &comparison);
@@ -386,6 +391,15 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   summary.add("median_total_ms", number(median(total_ms_)));
   summary.add("mean_total_ms", number(mean(total_ms_)));
   summary.add("median_estimate_ms", number(median(estimate_ms_)));
+  JsonFields pose;
+  pose.add("results", std::to_string(pose_refinement_ms_.size()));
+  pose.add("median_ms", number(median(pose_refinement_ms_)));
+  for (const SourcePoseOutcome outcome : {SourcePoseOutcome::kRefined, SourcePoseOutcome::kConfirmed,
+                                          SourcePoseOutcome::kTooFewMatches, SourcePoseOutcome::kRejected}) {
+    const char* name = sourcePoseOutcomeName(outcome);
+    pose.add(std::string("sources_") + name, std::to_string(pose_outcomes_.count(name) ? pose_outcomes_.at(name) : 0));
+  }
+  summary.add("pose_refinement", pose.object());
   JsonFields counters;
   for (const PipelineStatField& field : pipelineStatFields()) counters.add(field.name, std::to_string(stats.*field.value));
   summary.add("stats", counters.object());
@@ -446,6 +460,14 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   if (!accuracy_.empty()) {
     std::snprintf(text, sizeof(text), "; depth within 1/2/5/10 %%: %s %%, completeness %.1f %%",
                   pooled.accuracy.percentages().c_str(), 100 * pooled.completeness());
+    *line += text;
+  }
+  if (!pose_refinement_ms_.empty()) {
+    size_t sources = 0;
+    for (const auto& entry : pose_outcomes_) sources += entry.second;
+    const size_t refined = pose_outcomes_.count("refined") ? pose_outcomes_.at("refined") : 0;
+    std::snprintf(text, sizeof(text), "; poses refined for %zu of %zu sources (median %.0f ms)", refined, sources,
+                  median(pose_refinement_ms_));
     *line += text;
   }
   std::snprintf(text, sizeof(text), "; map %zu points", map_points.size());
