@@ -62,9 +62,9 @@ const std::vector<PoseRefinementOptionInfo>& poseRefinementOptionTable() {
       numberField("feature_sigma_px", &O::feature_sigma_px,
                   "reprojection noise of a match, pixels (weighs the matches against the prior)"),
       numberField("prior_position_sigma_m", &O::prior_position_sigma_m,
-                  "prior: expected error of a source's centre relative to the keyframe, std dev per axis, m"),
+                  "prior: the tracker's noise, expected error of each keyframe's position, std dev per axis, m"),
       numberField("prior_rotation_sigma_deg", &O::prior_rotation_sigma_deg,
-                  "prior: expected error of a source's rotation relative to the keyframe, std dev per axis, deg"),
+                  "prior: the tracker's noise, expected error of each keyframe's rotation, std dev per axis, deg"),
       numberField("max_iterations", &O::max_iterations, "bundle-adjustment iterations per solve"),
       numberField("min_explained_rms_px", &O::min_explained_rms_px,
                   "a source keeps the tracker's pose unless the refinement explains this much of its epipolar "

@@ -59,14 +59,41 @@ struct ReprojectionResidual {
   }
 };
 
-struct PosePriorResidual {
+// The reference's own pose error (w_r, dc_r): a rigid motion of the whole
+// star, which the features cannot see, in units of the tracker's noise.
+struct ReferencePriorResidual {
   double inverse_rotation_sigma = 1, inverse_position_sigma = 1;
 
   template <typename T>
-  bool operator()(const T* w, const T* dc, T* residual) const {
+  bool operator()(const T* w_r, const T* dc_r, T* residual) const {
     for (int i = 0; i < 3; ++i) {
-      residual[i] = w[i] * T(inverse_rotation_sigma);
-      residual[3 + i] = dc[i] * T(inverse_position_sigma);
+      residual[i] = w_r[i] * T(inverse_rotation_sigma);
+      residual[3 + i] = dc_r[i] * T(inverse_position_sigma);
+    }
+    return true;
+  }
+};
+
+// A source's own pose error (small angles, reference frame): the star's
+// rigid motion (w_r, dc_r) carries it by w_r and w_r x C, its correction
+// adds R w and dc.
+struct SourcePriorResidual {
+  double rotation_to_reference[9];  // R, row-major
+  double centre[3];                 // C
+  double inverse_rotation_sigma = 1, inverse_position_sigma = 1;
+
+  template <typename T>
+  bool operator()(const T* w_r, const T* dc_r, const T* w, const T* dc, T* residual) const {
+    T turned[3];
+    for (int row = 0; row < 3; ++row) {
+      turned[row] = T(rotation_to_reference[3 * row]) * w[0] + T(rotation_to_reference[3 * row + 1]) * w[1] +
+                    T(rotation_to_reference[3 * row + 2]) * w[2];
+    }
+    const T carried[3] = {w_r[1] * T(centre[2]) - w_r[2] * T(centre[1]), w_r[2] * T(centre[0]) - w_r[0] * T(centre[2]),
+                          w_r[0] * T(centre[1]) - w_r[1] * T(centre[0])};
+    for (int i = 0; i < 3; ++i) {
+      residual[i] = (w_r[i] + turned[i]) * T(inverse_rotation_sigma);
+      residual[3 + i] = (dc_r[i] + carried[i] + dc[i]) * T(inverse_position_sigma);
     }
     return true;
   }
@@ -134,16 +161,29 @@ void StarBundleAdjustment::solve(bool poses_free) {
                                source.rotation.data(), source.shift.data(), &inverse_depths_[observation.point]);
       used[observation.point] = true;
     }
-    if (poses_free && source.state == State::kFree) {
-      auto* prior = new PosePriorResidual;
+    if (poses_free) {  // a fixed source's pose error is the star's alone
+      auto* prior = new SourcePriorResidual;
+      for (int i = 0; i < 3; ++i) {
+        prior->centre[i] = source.centre_in_reference[i];
+        for (int j = 0; j < 3; ++j) prior->rotation_to_reference[3 * i + j] = source.rotation_to_reference(i, j);
+      }
       prior->inverse_rotation_sigma = 1.0 / settings_.prior_rotation_sigma_rad;
       prior->inverse_position_sigma = 1.0 / settings_.prior_position_sigma_m;
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PosePriorResidual, 6, 3, 3>(prior), nullptr,
-                               source.rotation.data(), source.shift.data());
-    } else {
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SourcePriorResidual, 6, 3, 3, 3, 3>(prior), nullptr,
+                               reference_rotation_.data(), reference_shift_.data(), source.rotation.data(),
+                               source.shift.data());
+    }
+    if (!poses_free || source.state == State::kFixed) {
       problem.SetParameterBlockConstant(source.rotation.data());
       problem.SetParameterBlockConstant(source.shift.data());
     }
+  }
+  if (problem.HasParameterBlock(reference_rotation_.data())) {
+    auto* prior = new ReferencePriorResidual;
+    prior->inverse_rotation_sigma = 1.0 / settings_.prior_rotation_sigma_rad;
+    prior->inverse_position_sigma = 1.0 / settings_.prior_position_sigma_m;
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReferencePriorResidual, 6, 3, 3>(prior), nullptr,
+                             reference_rotation_.data(), reference_shift_.data());
   }
   if (problem.NumResidualBlocks() == 0) return;
   for (size_t point = 0; point < rays_.size(); ++point) {

@@ -10,8 +10,13 @@
 // sees it at
 //     X_src ~ Exp(-w) R^T (r - rho (C + dc))      (homogeneous: times rho)
 // Residuals: the reprojection error / feature_sigma under a Huber loss
-// (robust beyond the inlier threshold), and the prior (w / sigma_rotation,
-// dc / sigma_position) that ties each pose to the tracker's.
+// (robust beyond the inlier threshold), and the tracker's noise as a prior
+// on every keyframe's own pose error (per axis, sigma_rotation and
+// sigma_position): the reference's (w_r, dc_r, a rigid motion of the whole
+// star that the features cannot see, solved and not used) and each source's
+// (w_r, dc_r and w_r x C carried over, plus R w and dc). So the scale of the
+// translations, which the features cannot see either, is the one that fits
+// all the keyframes' tracker poses best, the reference's included.
 #pragma once
 
 #include <vector>
@@ -84,6 +89,8 @@ class StarBundleAdjustment {
     Eigen::Vector3d shift = Eigen::Vector3d::Zero();     // dc
   };
 
+  Eigen::Vector3d reference_rotation_ = Eigen::Vector3d::Zero();  // w_r
+  Eigen::Vector3d reference_shift_ = Eigen::Vector3d::Zero();     // dc_r
   std::vector<Eigen::Vector3d> rays_;
   std::vector<double> inverse_depths_;
   std::vector<Source> sources_;

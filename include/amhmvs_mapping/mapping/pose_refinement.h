@@ -6,17 +6,18 @@
 //      detected once per image key and cached until forget(key);
 //   2. the reference's features matched to each source's (Lowe's ratio test,
 //      then RANSAC on the essential matrix of the normalised points);
-//   3. a small bundle adjustment (Ceres): the reference camera fixed; free
+//   3. a small bundle adjustment (Ceres): the reference camera held; free
 //      are each source's pose relative to the reference (a rotation about
 //      the source's centre and a shift of that centre, in the reference
 //      frame) and the inverse depth of each matched reference feature; the
 //      residuals are robust (Huber) reprojection errors in the sources plus
-//      a prior tying each relative pose to the tracker's (prior_*_sigma),
-//      which keeps what the features cannot see (the scale of all
-//      translations together, a source without matches) at the tracker's.
+//      the tracker's noise (prior_*_sigma) as a prior on every keyframe's own
+//      pose error, the reference's included: what the features cannot see
+//      (the scale of all translations together) becomes the best fit to all
+//      the tracker's poses.
 //      A source whose correction exceeds max_correction_* keeps the
 //      tracker's pose (rejected); so does one whose refinement explains less
-//      than min_explained_rms_px of its reprojection error (confirmed: the
+//      than min_explained_rms_px of its epipolar error (confirmed: the
 //      features agree with the tracker; it stays in the adjustment as an
 //      anchor); the others are solved again after each such decision.
 //
@@ -52,9 +53,8 @@ struct PoseRefinementOptions {
   int min_inliers = 20;               // fewer matches left: the source keeps the tracker's pose
   // --- Bundle adjustment ---
   double feature_sigma_px = 0.5;      // reprojection noise of a match (weighs matches against the prior)
-  // Expected error of a source's pose relative to the reference (the
-  // tracker's noise of both frames): std dev per axis of the source centre's
-  // shift (metres) and of its rotation (degrees).
+  // The tracker's noise: expected error of each keyframe's pose, std dev
+  // per axis of its position (metres) and of its rotation (degrees).
   double prior_position_sigma_m = 0.01;
   double prior_rotation_sigma_deg = 0.3;
   int max_iterations = 30;            // Levenberg-Marquardt iterations per solve
