@@ -82,9 +82,9 @@ TEST(OnlineMapperPoseRefinement, EstimatorSeesRefinedSourcesEverythingElseTheTra
   const double before = meanImageMotionPx(truth[1], views[1].depth, tracker[0], truth[0]);
   const double after = meanImageMotionPx(truth[1], views[1].depth, seen.source_cameras[0], truth[0]);
   std::cout << "keyframe 1's source: " << before << " -> " << after << " px from its true camera\n";
-  // Measured 3.00 -> 0.31 px: with one source what is left is the 4 mm error
-  // along the baseline (the scale, which the features cannot see and the
-  // prior keeps at the tracker's).
+  // Measured 3.00 -> 0.31 px: with one source what is left is most of the
+  // 4 mm error along the baseline (the scale, which the features cannot see;
+  // the prior fits it to both keyframes' tracker poses).
   EXPECT_GT(before, 2.5);
   EXPECT_LT(after, 0.4);
   // Keyframe 0's late estimate: its own camera is the tracker's (12 mm off),

@@ -47,7 +47,7 @@ struct PoseRefinementOptions {
   // points, and its features cost more than a GPU estimate (README).
   bool enabled = false;
   // --- Features and matches ---
-  int max_features = 1000;            // SIFT features per keyframe image (the strongest)
+  int max_features = 500;             // SIFT features per keyframe image (the strongest)
   double ratio_test = 0.8;            // best / second-best descriptor distance, at most
   double inlier_threshold_px = 1.5;   // RANSAC (essential matrix) and final reprojection inliers
   int min_inliers = 20;               // fewer matches left: the source keeps the tracker's pose
