@@ -8,28 +8,13 @@
 
 #include "amhmvs_mapping/core/synthetic_scene.h"
 #include "amhmvs_mapping/mapping/online_mapper.h"
+#include "pose_error.h"
 #include "synthetic_problem.h"
 
 namespace amhmvs {
 namespace {
 
-// Mean distance in pixels between where two cameras see the surface of
-// `depth` (every 8th pixel of the view `viewer`).
-double meanImageMotionPx(const PinholeCamera& viewer, const ImageF& depth, const PinholeCamera& a,
-                         const PinholeCamera& b) {
-  const Eigen::Isometry3d viewer_to_world = cameraToWorld(viewer);
-  double sum = 0;
-  int count = 0;
-  for (int y = 0; y < viewer.height; y += 8) {
-    for (int x = 0; x < viewer.width; x += 8) {
-      if (!std::isfinite(depth.at(x, y))) continue;
-      const Eigen::Vector3d world = viewer_to_world * viewer.backproject(x, y, depth.at(x, y));
-      sum += (a.project(a.toCamera(world)) - b.project(b.toCamera(world))).norm();
-      ++count;
-    }
-  }
-  return sum / count;
-}
+using test::meanImageMotionPx;
 
 TEST(OnlineMapperPoseRefinement, EstimatorSeesRefinedSourcesEverythingElseTheTrackersPoses) {
   if (!PoseRefiner::available()) GTEST_SKIP() << PoseRefiner::unavailableMessage();
@@ -48,10 +33,7 @@ TEST(OnlineMapperPoseRefinement, EstimatorSeesRefinedSourcesEverythingElseTheTra
     keyframe.camera = truth[id];
     keyframes.push_back(keyframe);
   }
-  Eigen::Isometry3d wrong = cameraToWorld(truth[0]);
-  wrong.linear() = wrong.linear() * Eigen::AngleAxisd(0.5 * M_PI / 180, Eigen::Vector3d(1, 2, 0.5).normalized()).matrix();
-  wrong.translation() += Eigen::Vector3d(0.004, -0.008, 0.008);
-  keyframes[0].setCameraToWorld(wrong);
+  keyframes[0].camera = test::withPoseError(truth[0], {0.004, -0.008, 0.008}, {1, 2, 0.5}, 0.5);
   const std::vector<PinholeCamera> tracker = {keyframes[0].camera, keyframes[1].camera};
 
   OnlineMapperOptions options;

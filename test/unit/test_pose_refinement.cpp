@@ -11,6 +11,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "amhmvs_mapping/mapping/pose_refinement.h"
+#include "pose_error.h"
 #include "synthetic_problem.h"
 
 namespace amhmvs {
@@ -19,35 +20,12 @@ namespace {
 #define AMHMVS_REQUIRE_POSE_REFINEMENT()                                              \
   if (!PoseRefiner::available()) GTEST_SKIP() << PoseRefiner::unavailableMessage()
 
-// Moves a camera's centre by `shift` (world) and turns it by `angle_deg`
-// about `axis` (camera frame, about its centre): a tracker's error.
-PinholeCamera withPoseError(const PinholeCamera& camera, const Eigen::Vector3d& shift, const Eigen::Vector3d& axis,
-                            double angle_deg) {
-  Eigen::Isometry3d pose = cameraToWorld(camera);
-  pose.linear() = pose.linear() * Eigen::AngleAxisd(angle_deg * M_PI / 180, axis.normalized()).matrix();
-  pose.translation() += shift;
-  PinholeCamera moved = camera;
-  setCameraToWorld(pose, &moved);
-  return moved;
-}
+using test::withPoseError;
 
 // Mean distance in pixels between where two cameras of one source see the
-// reference's true surface (every 8th pixel): the error stereo suffers.
+// reference's true surface: the error stereo suffers.
 double meanImageMotionPx(const SyntheticProblem& scene, const PinholeCamera& a, const PinholeCamera& b) {
-  const PinholeCamera& reference = scene.problem.reference_camera;
-  const Eigen::Isometry3d reference_to_world = cameraToWorld(reference);
-  double sum = 0;
-  int count = 0;
-  for (int y = 0; y < reference.height; y += 8) {
-    for (int x = 0; x < reference.width; x += 8) {
-      const float depth = scene.true_depth.at(x, y);
-      if (!std::isfinite(depth)) continue;
-      const Eigen::Vector3d world = reference_to_world * reference.backproject(x, y, depth);
-      sum += (a.project(a.toCamera(world)) - b.project(b.toCamera(world))).norm();
-      ++count;
-    }
-  }
-  return count > 0 ? sum / count : NAN;
+  return test::meanImageMotionPx(scene.problem.reference_camera, scene.true_depth, a, b);
 }
 
 class PoseRefinementScene : public ::testing::Test {
