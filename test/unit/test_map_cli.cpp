@@ -189,6 +189,10 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
                                 {"map", "within_5cm_pct", 97},
                                 {"pose_refinement", "sources_refined", 20}});
   EXPECT_EQ(jsonNumber(refined_summary, "pose_refinement", "sources_rejected"), 0) << refined_summary;
+  // The pipeline's counters (the nodelet's diagnostics) agree with the results.
+  EXPECT_EQ(jsonNumber(refined_summary, "stats", "pose_sources_refined"),
+            jsonNumber(refined_summary, "pose_refinement", "sources_refined"))
+      << refined_summary;
 }
 
 // Realtime replay at 100x the recording's rate (a frame every 10 ms) with a

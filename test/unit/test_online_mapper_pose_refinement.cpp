@@ -5,8 +5,11 @@
 
 #include <cmath>
 #include <map>
+#include <string>
+#include <vector>
 
 #include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mapping/online_mapper.h"
 #include "pose_error.h"
 #include "synthetic_problem.h"
@@ -114,6 +117,26 @@ TEST(OnlineMapperPoseRefinement, OptionsAreCheckedAndTheSwitchTurnsItOff) {
     const KeyframeResult result = mapper.process(keyframe);
     EXPECT_FALSE(result.pose_refinement.ran);
     EXPECT_EQ(result.times.pose_refinement_ms, 0);
+  }
+}
+
+TEST(OnlineMapperPoseRefinement, PipelineWarnsWhenAskedForItInABuildWithoutIt) {
+  PipelineOptions options;
+  options.mapper.pose_refinement.enabled = true;
+  std::vector<std::string> warnings;
+  MappingPipeline pipeline(options, [](const DepthProblem& problem) {
+    DepthMap map;
+    map.depth = ImageF(problem.reference_camera.width, problem.reference_camera.height, 1, 3.0f);
+    return map;
+  }, nullptr, "injected", [&warnings](MappingPipeline::LogLevel level, const std::string& line) {
+    if (level == MappingPipeline::LogLevel::kWarn) warnings.push_back(line);
+  });
+  if (PoseRefiner::available()) {
+    EXPECT_TRUE(warnings.empty()) << warnings.front();
+  } else {
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("no pose refinement: it needs OpenCV features2d and Ceres"), std::string::npos)
+        << warnings[0];
   }
 }
 
