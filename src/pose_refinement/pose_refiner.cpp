@@ -139,10 +139,11 @@ PoseRefinementResult PoseRefiner::Impl::refine(DepthProblem* problem) {
   // 1-2: features and matches.
   const auto reference_features = features(problem->reference_image, problem->reference_key, &result.feature_ms);
   std::vector<MatchSet> matches(source_count);
+  std::vector<std::shared_ptr<const ImageFeatures>> source_features(source_count);
   for (size_t s = 0; s < source_count; ++s) {
-    const auto source_features = features(problem->source_images[s], keyOf(s), &result.feature_ms);
+    source_features[s] = features(problem->source_images[s], keyOf(s), &result.feature_ms);
     const Clock::time_point match_start = Clock::now();
-    matches[s] = matchFeatures(*reference_features, reference, *source_features, problem->source_cameras[s],
+    matches[s] = matchFeatures(*reference_features, reference, *source_features[s], problem->source_cameras[s],
                                options_.ratio_test, options_.inlier_threshold_px);
     result.matching_ms += millisecondsSince(match_start);
     SourcePoseRefinement source;
@@ -181,12 +182,11 @@ PoseRefinementResult PoseRefiner::Impl::refine(DepthProblem* problem) {
   std::vector<SourceInReference> tracker(source_count);
   for (size_t s = 0; s < source_count; ++s) {
     tracker[s] = sourceInReference(reference, problem->source_cameras[s]);
-    const auto source_features = features(problem->source_images[s], keyOf(s), &result.feature_ms);  // cached
     std::vector<StarBundleAdjustment::Observation> observations;
     for (const FeatureMatch& match : matches[s].inliers) {
       const auto point = point_of_feature.find(match.reference);
       if (point != point_of_feature.end())
-        observations.push_back({point->second, source_features->pixels[match.source]});
+        observations.push_back({point->second, source_features[s]->pixels[match.source]});
     }
     adjustment.addSource(problem->source_cameras[s], tracker[s].rotation, tracker[s].centre, std::move(observations));
     if (result.sources[s].inliers < options_.min_inliers)
