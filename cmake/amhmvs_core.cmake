@@ -1,6 +1,6 @@
 # The ROS-free core library: camera model, images, file formats, the AMHMVS
 # estimator with its CPU backend and (when nvcc is found) its CUDA backend.
-# Needs Eigen and the C++ standard library; OpenMP and OpenCV are optional.
+# Needs Eigen and the C++ standard library; OpenMP, OpenCV and Ceres are optional.
 #
 # Options:
 #   AMHMVS_WITH_CUDA            build the CUDA backend when nvcc is found (ON)
@@ -91,3 +91,4 @@ if(OpenCV_FOUND AND NOT AMHMVS_CORE_WITHOUT_OPENCV)
   target_include_directories(amhmvs_core SYSTEM PRIVATE ${OpenCV_INCLUDE_DIRS})
   target_link_libraries(amhmvs_core PRIVATE ${OpenCV_LIBS})
 endif()
+include(${CMAKE_CURRENT_LIST_DIR}/amhmvs_pose_refinement.cmake)

@@ -50,6 +50,8 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"late_depth_maps", &PipelineStats::late_depth_maps},
       {"refined_depth_maps", &PipelineStats::refined_depth_maps},
       {"refinements_rejected", &PipelineStats::refinements_rejected},
+      {"pose_sources_refined", &PipelineStats::pose_sources_refined},
+      {"pose_sources_rejected", &PipelineStats::pose_sources_rejected},
       {"keyframes_without_sources", &PipelineStats::keyframes_without_sources},
       {"skipped_kept_as_sources", &PipelineStats::skipped_kept_as_sources},
       {"keyframes_fused", &PipelineStats::keyframes_fused},
@@ -165,6 +167,9 @@ void MappingPipeline::init(EstimateFunction primary, EstimateFunction fallback, 
   const auto agree = [this](const FusionView& reference, const std::vector<FusionView>& views,
                             const FusionOptions& checks) { return this->agree(reference, views, checks); };
   mapper_.reset(new OnlineMapper(options_.mapper, estimate, fuse, agree));
+  if (options_.mapper.pose_refinement.enabled && !PoseRefiner::available())
+    report(LogLevel::kWarn, "pose_refinement", std::string(PoseRefiner::unavailableMessage()) +
+                                                   ": the sources' poses are the tracker's, unrefined");
 }
 
 void MappingPipeline::forgetEvicted(const std::vector<int64_t>& evicted) {
@@ -512,6 +517,8 @@ void MappingPipeline::account(const PipelineOutput& output) {
     if (!result.refined) ++stats_.depth_maps;
     if (result.late) ++stats_.late_depth_maps;
     if (result.refined) ++stats_.refined_depth_maps;
+    stats_.pose_sources_refined += result.pose_refinement.refinedCount();
+    stats_.pose_sources_rejected += result.pose_refinement.rejectedCount();
     stats_.last_estimate_ms = result.depth->milliseconds;
     stats_.gpu_memory_bytes = result.depth->gpu_memory_bytes;
   }

@@ -77,6 +77,7 @@ std::string OnlineMapperOptions::validate() const {
   appendProblems("map", map.validate(), &out);
   appendProblems("refinement", refinement.validate(), &out);
   appendProblems("confidence", confidence.validate(), &out);
+  appendProblems("pose_refinement", pose_refinement.validate(), &out);
   if (fusion.min_consistent_views > kMaxSourceViews)
     out << "fusion: min_consistent_views must be at most " << kMaxSourceViews << " (the most consistency views)\n";
   return out.str();
@@ -93,6 +94,7 @@ OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction 
   const std::string problems = options.validate();
   if (!problems.empty()) throw InputError("online mapper options:\n" + problems);
   if (!estimate_) throw InputError("online mapper: no estimate function");
+  if (options.pose_refinement.enabled) pose_refiner_.reset(new PoseRefiner(options.pose_refinement));
 }
 
 KeyframeResult OnlineMapper::process(Keyframe keyframe) {
@@ -207,6 +209,12 @@ void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
   problem.depth_min = result->depth_range.min;
   problem.depth_max = result->depth_range.max;
   result->times.problem_ms = millisecondsSince(start);
+  if (pose_refiner_) {
+    // The sources' cameras of this problem only; the store keeps the tracker's.
+    start = Clock::now();
+    result->pose_refinement = pose_refiner_->refine(&problem);
+    result->times.pose_refinement_ms = millisecondsSince(start);
+  }
   start = Clock::now();
   result->depth = estimate_(problem);
   result->times.estimate_ms = millisecondsSince(start);
@@ -240,6 +248,7 @@ void OnlineMapper::noteEvicted(const std::vector<int64_t>& evicted, KeyframeResu
   for (int64_t id : evicted) {
     result->evicted.push_back(id);
     estimates_.erase(id);
+    if (pose_refiner_) pose_refiner_->forget(id);
     const auto without_depth = std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id);
     if (without_depth != waiting_for_sources_.end()) {
       waiting_for_sources_.erase(without_depth);
@@ -415,6 +424,7 @@ void OnlineMapper::reset() {
   waiting_for_sources_.clear();
   evicted_without_depth_ = 0;
   estimates_.clear();
+  if (pose_refiner_) pose_refiner_->forgetAll();
   try {
     finishMapWork();
   } catch (const std::exception&) {
@@ -444,6 +454,11 @@ void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
     noteMapChanged();
   }
   kept.map = map_.options();
+  if (!options.pose_refinement.enabled) {
+    pose_refiner_.reset();
+  } else if (!pose_refiner_ || pose_refiner_->options() != options.pose_refinement) {
+    pose_refiner_.reset(new PoseRefiner(options.pose_refinement));  // features of other settings: detected again
+  }
   options_ = kept;
 }
 

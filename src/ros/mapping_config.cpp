@@ -107,6 +107,23 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   o->confidence.min_probability = static_cast<float>(min_probability);
 }
 
+// Every option of an option table that is set as ~<group>/<name>; a bad
+// value is reported (the default stays).
+template <typename Options>
+void readOptionTable(const ros::NodeHandle& nh, const std::string& group,
+                     const std::vector<amhmvs::OptionField<Options>>& table, Options* options,
+                     std::ostringstream* err) {
+  for (const amhmvs::OptionField<Options>& option : table) {
+    std::string text;
+    if (!paramText(nh, group + "/" + option.name, &text)) continue;
+    try {
+      option.set(*options, text);
+    } catch (const amhmvs::InputError& e) {
+      *err << group << "/" << option.name << ": " << e.what() << "\n";
+    }
+  }
+}
+
 // Each group of the mapping core checked on its own: a bad group is
 // reported and replaced by its defaults.
 template <typename Options>
@@ -216,16 +233,13 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
   requireValid("refinement", &c.mapper.refinement, defaults.mapper.refinement, &err);
   requireValid("confidence", &c.mapper.confidence, defaults.mapper.confidence, &err);
 
-  // Estimator options: every entry of the option table, as ~estimator/<name>.
-  for (const amhmvs::OptionInfo& option : amhmvs::patchMatchOptionTable()) {
-    std::string text;
-    if (!paramText(pnh, "estimator/" + option.name, &text)) continue;
-    try {
-      option.set(c.estimator, text);
-    } catch (const amhmvs::InputError& e) {
-      err << "estimator/" << option.name << ": " << e.what() << "\n";
-    }
-  }
+  // Pose refinement and estimator options: every entry of their option
+  // tables, as ~pose_refinement/<name> and ~estimator/<name>.
+  readOptionTable(pnh, "pose_refinement", amhmvs::poseRefinementOptionTable(), &c.mapper.pose_refinement, &err);
+  requireValid("pose_refinement", &c.mapper.pose_refinement, defaults.mapper.pose_refinement, &err);
+  if (c.mapper.pose_refinement.enabled && !amhmvs::PoseRefiner::available())
+    err << "pose_refinement/enabled: " << amhmvs::PoseRefiner::unavailableMessage() << "; the tracker's poses are used\n";
+  readOptionTable(pnh, "estimator", amhmvs::patchMatchOptionTable(), &c.estimator, &err);
   requireValid("estimator", &c.estimator, defaults.estimator, &err);
   if (errors) *errors = err.str();
   return c;

@@ -9,7 +9,7 @@
 // usage: amhmvs_benchmark [DATA_DIR] [--out FILE] [--runs N] [--cpu-threads N] [--quick]
 //                         [--only SCENE[,SCENE...]]  (fountain_x0.25 ... fountain_x1,
 //                                           synthetic, scaling, cpu, cpu-scaling, fusion,
-//                                           map, pipeline, replay)
+//                                           map, pipeline, replay, pose)
 //                         [--replay N]     keyframes of the memory replay (10000)
 //                         [--map-foreground] the replay updates the voxel map in its own thread
 //
@@ -23,7 +23,8 @@
 //             device memory every N/10 keyframes (must stay flat).
 // The scaling rows time the synthetic scene at 4 sizes x 3 source counts; the
 // cpu rows the CPU backend at 320x240 and 640x480 (4 sources, --cpu-threads),
-// the cpu-scaling rows 320x240 at 1, 2, 4 and 8 threads (up to the core count).
+// the cpu-scaling rows 320x240 at 1, 2, 4 and 8 threads (up to the core count);
+// pose: the pose refinement before stereo (pose_refinement_benchmark.h).
 // DATA_DIR holds mvsnet/fountain_x0.25, fountain_x0.5, fountain_x1 dense
 // folders with decodable images (see scripts/prepare_gpu_data.py); rows whose
 // folder is missing are skipped.
@@ -57,6 +58,7 @@
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 #include "depth_job.h"
+#include "pose_refinement_benchmark.h"
 #include "synthetic_problem.h"
 
 namespace amhmvs {
@@ -553,6 +555,10 @@ int main(int argc, char** argv) {
       online += pipelineTable(quick ? 12 : 60);
       save();
       std::fprintf(stderr, "pipeline done\n");
+    }
+    if (wants("pose")) {
+      online += poseRefinementTable(std::max(runs, 5));
+      save();
     }
     if (only.empty() ? !quick : wants("replay")) online += replayTable(replay_count, !map_foreground);
   } catch (const std::exception& e) {

@@ -9,6 +9,9 @@ namespace amhmvs {
 
 namespace {
 
+// --pose_refinement_<name>: an option of poseRefinementOptionTable().
+const std::string kPoseRefinementPrefix = "pose_refinement_";
+
 // "x,y,z" in metres.
 Eigen::Vector3d parseVector(const std::string& option, const std::string& text) {
   std::istringstream in(text);
@@ -47,11 +50,12 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
   PipelineOptions& pipeline = options.pipeline;
   FrameSelection& frames = options.frames;
   PosedSequenceOptions& sequence = options.sequence;
+  bool pose_refinement_asked = false;  // given on the command line (not the default)
   for (size_t i = 0; i < arguments.size(); ++i) {
     std::string name, value;
     nextOption(arguments, &i,
                {"quiet", "write_depth", "write_previews", "write_clouds", "write_confidence", "skip_to_newest",
-                "confidence"},
+                "confidence", "pose_refinement"},
                &name, &value);
     if (name == "quiet") options.quiet = parseSwitch(name, value);
     else if (name == "write_depth") options.write_depth = parseSwitch(name, value);
@@ -87,6 +91,13 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     else if (name == "max_time_difference") sequence.tum_max_time_difference_s = parseValue<double>(name, value);
     else if (name == "depth_factor") sequence.tum_depth_units_per_metre = parseValue<double>(name, value);
     else if (name == "frame_period") sequence.frame_period_s = parseValue<double>(name, value);
+    else if (name == "pose_refinement") pose_refinement_asked = pipeline.mapper.pose_refinement.enabled =
+        parseSwitch(name, value);
+    else if (name.rfind(kPoseRefinementPrefix, 0) == 0 &&
+             setOptionFromTable(poseRefinementOptionTable(), name.substr(kPoseRefinementPrefix.size()), value,
+                                &pipeline.mapper.pose_refinement)) {
+      pose_refinement_asked |= pipeline.mapper.pose_refinement.enabled;
+    }
     else if (!setPatchMatchOption(name, value, &pipeline.estimator))
       throw InputError("unknown option --" + name + " (see --help)");
   }
@@ -95,6 +106,8 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     if (!ok) problems += what + "\n";
   };
   require(options.max_image_size >= 0, "max_image_size must be >= 0");
+  require(!pose_refinement_asked || PoseRefiner::available(),
+          std::string("--pose_refinement: ") + PoseRefiner::unavailableMessage());
   require(frames.stride >= 1, "stride must be >= 1");
   std::ostringstream picking;
   appendProblems("keyframe picking", frames.picking.validate(), &picking);
@@ -181,7 +194,17 @@ std::string mapToolUsage() {
          "                       being within 5 %) is below P (default 0.97; 0: nothing masked)\n"
          "  --queue_size N       keyframes waiting (default: all offline, 4 with --realtime)\n"
          "  --skip_to_newest[=0|1]  after a queue overflow take the newest keyframe (default 1)\n"
-         "Outputs:\n"
+         "Pose refinement (before stereo; depth, clouds and map stay in the tracker's frame):\n"
+         "  --pose_refinement[=0|1]  refine each keyframe's poses relative to its sources (default "
+      << (PoseRefinementOptions().enabled ? 1 : 0) << ";\n"
+         "                       this build: "
+      << (PoseRefiner::available() ? "available" : PoseRefiner::unavailableMessage()) << ")\n";
+  for (const PoseRefinementOptionInfo& option : poseRefinementOptionTable()) {
+    if (option.name == "enabled") continue;
+    out << "  --" << kPoseRefinementPrefix << option.name << " (" << option.get(PoseRefinementOptions()) << ")  "
+        << option.help << "\n";
+  }
+  out << "Outputs:\n"
          "  --write_depth[=0|1] (default 1)  --write_clouds[=0|1] (default 1)\n"
          "  --write_previews[=0|1] (default 0)  --quiet (only warnings and the summary line)\n"
          "  --write_confidence[=0|1] (default 0) confidence/NNNNNN.pfm, each keyframe's confidence\n"

@@ -28,9 +28,9 @@ const std::vector<std::pair<const char*, double StageTimes::*>>& stageFields() {
   static const std::vector<std::pair<const char*, double StageTimes::*>> fields = {
       {"queue_wait_ms", &StageTimes::queue_wait_ms}, {"selection_ms", &StageTimes::selection_ms},
       {"depth_range_ms", &StageTimes::depth_range_ms}, {"problem_ms", &StageTimes::problem_ms},
-      {"estimate_ms", &StageTimes::estimate_ms},     {"fusion_ms", &StageTimes::fusion_ms},
-      {"confidence_ms", &StageTimes::confidence_ms}, {"map_ms", &StageTimes::map_ms},
-      {"total_ms", &StageTimes::total_ms}};
+      {"pose_refinement_ms", &StageTimes::pose_refinement_ms}, {"estimate_ms", &StageTimes::estimate_ms},
+      {"fusion_ms", &StageTimes::fusion_ms},                   {"confidence_ms", &StageTimes::confidence_ms},
+      {"map_ms", &StageTimes::map_ms},                         {"total_ms", &StageTimes::total_ms}};
   return fields;
 }
 
@@ -145,6 +145,41 @@ Cell idListCell(const std::string& name, const std::vector<int64_t>& ids) {
   return cell;
 }
 
+// What the pose refinement did (empty / null when it did not run): sources
+// refined and rejected, inliers, reprojection RMS before and after (pixels),
+// the largest correction.
+std::vector<Cell> poseRefinementCells(const PoseRefinementResult& pose) {
+  int inliers = 0;
+  for (const SourcePoseRefinement& source : pose.sources)
+    if (source.outcome == SourcePoseOutcome::kRefined) inliers += source.inliers;
+  const bool ran = pose.ran;
+  return {numberCell("pose_sources_refined", ran ? pose.refinedCount() : NAN),
+          numberCell("pose_sources_rejected", ran ? pose.rejectedCount() : NAN),
+          numberCell("pose_inliers", ran ? inliers : NAN),
+          numberCell("pose_rms_before_px", ran ? pose.rmsBeforePx() : NAN),
+          numberCell("pose_rms_after_px", ran ? pose.rmsAfterPx() : NAN),
+          numberCell("pose_correction_mm", ran ? 1000 * pose.maxCorrectionM() : NAN),
+          numberCell("pose_correction_deg", ran ? pose.maxCorrectionDeg() : NAN)};
+}
+
+// Per source (JSON only): matches, inliers, RMS, correction, outcome.
+std::string poseSourcesJson(const PoseRefinementResult& pose) {
+  std::string list;
+  for (const SourcePoseRefinement& source : pose.sources) {
+    JsonFields fields;
+    fields.add("id", std::to_string(source.key));
+    fields.add("matches", std::to_string(source.matches));
+    fields.add("inliers", std::to_string(source.inliers));
+    fields.add("rms_before_px", number(source.rms_before_px));
+    fields.add("rms_after_px", number(source.rms_after_px));
+    fields.add("correction_mm", number(1000 * source.correction_m));
+    fields.add("correction_deg", number(source.correction_deg));
+    fields.add("outcome", quoted(sourcePoseOutcomeName(source.outcome)));
+    list += (list.empty() ? "" : ", ") + fields.object();
+  }
+  return "[" + list + "]";
+}
+
 // The row of one result: identity, sources, depth range, stage times, fusion.
 std::vector<Cell> resultCells(const KeyframeResult& result, const PosedFrame* frame) {
   const bool depth = result.has_depth;
@@ -162,6 +197,7 @@ std::vector<Cell> resultCells(const KeyframeResult& result, const PosedFrame* fr
       textCell("backend", depth ? backendName(result.depth->backend) : "")};
   for (const auto& field : stageFields()) cells.push_back(numberCell(field.first, result.times.*field.second));
   cells.push_back(numberCell("estimator_ms", depth ? result.depth->milliseconds : NAN));
+  for (const Cell& cell : poseRefinementCells(result.pose_refinement)) cells.push_back(cell);
   std::vector<int64_t> fused_ids;
   size_t fused_points = 0;
   for (const FusedKeyframe& fused : result.fused) {
@@ -320,6 +356,11 @@ void MapOutputs::write(const Row& row) {
     total_ms_.push_back(result.times.total_ms);
     estimate_ms_.push_back(result.times.estimate_ms);
   }
+  if (result.pose_refinement.ran) {
+    pose_refinement_ms_.push_back(result.times.pose_refinement_ms);
+    for (const SourcePoseRefinement& source : result.pose_refinement.sources)
+      ++pose_outcomes_[sourcePoseOutcomeName(source.outcome)];
+  }
   writeFiles(result);
   DepthComparison comparison;
   const bool has_truth = compareWithTruth(result, frame, &comparison);
@@ -327,6 +368,7 @@ void MapOutputs::write(const Row& row) {
   std::vector<Cell> cells = resultCells(result, frame);
   JsonFields json;
   for (const Cell& cell : cells) json.add(cell.name, cell.json);
+  json.add("pose_refinement_sources", poseSourcesJson(result.pose_refinement));
   json.add("accuracy", has_truth ? accuracyFields(comparison).object() : "null");
   json.add("published_accuracy", comparePublished(result));
   for (const Cell& cell : accuracyCells(has_truth ? &comparison : nullptr)) cells.push_back(cell);
@@ -388,6 +430,15 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   summary.add("median_total_ms", number(median(total_ms_)));
   summary.add("mean_total_ms", number(mean(total_ms_)));
   summary.add("median_estimate_ms", number(median(estimate_ms_)));
+  JsonFields pose;
+  pose.add("results", std::to_string(pose_refinement_ms_.size()));
+  pose.add("median_ms", number(median(pose_refinement_ms_)));
+  for (const SourcePoseOutcome outcome : {SourcePoseOutcome::kRefined, SourcePoseOutcome::kConfirmed,
+                                          SourcePoseOutcome::kTooFewMatches, SourcePoseOutcome::kRejected}) {
+    const char* name = sourcePoseOutcomeName(outcome);
+    pose.add(std::string("sources_") + name, std::to_string(pose_outcomes_.count(name) ? pose_outcomes_.at(name) : 0));
+  }
+  summary.add("pose_refinement", pose.object());
   JsonFields counters;
   for (const PipelineStatField& field : pipelineStatFields()) counters.add(field.name, std::to_string(stats.*field.value));
   summary.add("stats", counters.object());
@@ -476,6 +527,14 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
     std::snprintf(text, sizeof(text), "; published (confidence >= %.2f): %s %%, completeness %.1f %%",
                   options_.pipeline.mapper.confidence.min_probability, published.accuracy.percentages().c_str(),
                   100 * published.completeness());
+    *line += text;
+  }
+  if (!pose_refinement_ms_.empty()) {
+    size_t sources = 0;
+    for (const auto& entry : pose_outcomes_) sources += entry.second;
+    const size_t refined = pose_outcomes_.count("refined") ? pose_outcomes_.at("refined") : 0;
+    std::snprintf(text, sizeof(text), "; poses refined for %zu of %zu sources (median %.0f ms)", refined, sources,
+                  median(pose_refinement_ms_));
     *line += text;
   }
   std::snprintf(text, sizeof(text), "; map %zu points", map_points.size());

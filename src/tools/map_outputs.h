@@ -75,6 +75,8 @@ class MapOutputs {
   std::map<int64_t, DepthRangeEstimate> depth_ranges_;  // of each keyframe's latest depth map (previews)
   std::map<int64_t, std::vector<Eigen::Vector3f>> truth_points_;  // ground-truth surface, world
   std::vector<double> total_ms_, estimate_ms_;
+  std::vector<double> pose_refinement_ms_;          // results whose poses were refined
+  std::map<std::string, size_t> pose_outcomes_;     // sources by SourcePoseOutcome name
   double submit_blocked_ms_ = 0;  // main thread: time add() waited for room in the writer's queue
   BackgroundWriter writer_;  // last: stopped first
 };

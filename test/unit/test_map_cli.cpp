@@ -16,6 +16,7 @@
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/pfm.h"
 #include "amhmvs_mapping/io/point_cloud_io.h"
+#include "amhmvs_mapping/mapping/pose_refinement.h"
 #include "test_helpers.h"
 
 namespace amhmvs {
@@ -157,8 +158,9 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
   const CommandResult made = runTool("amhmvs_synthetic", dir.file("room") +
                                                             " --scene room --views 6 --width 320 --height 240 --realism default");
   ASSERT_EQ(made.exit_code, 0) << made.output;
-  const CommandResult r = runTool("amhmvs_map", dir.file("room") + " " + dir.file("out") +
-                                                     " --backend cpu --max_image_size 160 --iterations 3 --num_sources 3");
+  const std::string settings = " --backend cpu --max_image_size 160 --iterations 3 --num_sources 3";
+  const CommandResult r =
+      runTool("amhmvs_map", dir.file("room") + " " + dir.file("out") + settings + " --pose_refinement=0");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   std::cout << made.output << "\n" << r.output;
   const std::string summary = readText(dir.file("out/summary.json"));
@@ -176,6 +178,29 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
                         {"published_depth_accuracy", "completeness_pct", 17},
                         {"map", "points", 50},
                         {"map", "within_5cm_pct", 85}});
+
+  // The same with the sources' poses refined before stereo (issue 12).
+  if (!PoseRefiner::available()) GTEST_SKIP() << PoseRefiner::unavailableMessage();
+  const CommandResult refined =
+      runTool("amhmvs_map", dir.file("room") + " " + dir.file("refined") + settings + " --pose_refinement=1");
+  ASSERT_EQ(refined.exit_code, 0) << refined.output;
+  std::cout << refined.output;
+  const std::string refined_summary = readText(dir.file("refined/summary.json"));
+  // Measured (CPU): 50.3 / 76.4 / 90.3 / 92.2 % within 1/2/5/10 %,
+  // completeness 99.0 %; map 2108 points, 79.9 % within 2 cm, 98.7 % within
+  // 5 cm; every one of the 23 sources refined, median 90 ms per result.
+  expectAbove(refined_summary, {{"depth_accuracy", "within_5pct", 87},
+                                {"depth_accuracy", "within_10pct", 90},
+                                {"depth_accuracy", "completeness_pct", 97},
+                                {"map", "points", 1800},
+                                {"map", "within_2cm_pct", 75},
+                                {"map", "within_5cm_pct", 97},
+                                {"pose_refinement", "sources_refined", 20}});
+  EXPECT_EQ(jsonNumber(refined_summary, "pose_refinement", "sources_rejected"), 0) << refined_summary;
+  // The pipeline's counters (the nodelet's diagnostics) agree with the results.
+  EXPECT_EQ(jsonNumber(refined_summary, "stats", "pose_sources_refined"),
+            jsonNumber(refined_summary, "pose_refinement", "sources_refined"))
+      << refined_summary;
 }
 
 // The written depth is NaN exactly where the written confidence is below

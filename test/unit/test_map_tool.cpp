@@ -96,5 +96,22 @@ TEST(MapTool, ParsesOptionsAndRefusesBadOnes) {
   EXPECT_INPUT_ERROR(parseMapToolArguments({"stray"}), "unexpected argument", "stray");
 }
 
+TEST(MapTool, PoseRefinementOptions) {
+  EXPECT_FALSE(parseMapToolArguments({}).pipeline.mapper.pose_refinement.enabled);  // off by default
+  EXPECT_EQ(parseMapToolArguments({"--pose_refinement_max_features", "500"}).pipeline.mapper.pose_refinement.max_features,
+            500);
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--pose_refinement_min_inliers", "3"}), "pose_refinement: min_inliers",
+                     ">= 6");
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--pose_refinement_ratio_test", "x"}), "ratio_test", "'x'");
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--pose_refinement_bogus", "1"}), "unknown option",
+                     "--pose_refinement_bogus");
+  if (PoseRefiner::available()) {
+    EXPECT_TRUE(parseMapToolArguments({"--pose_refinement"}).pipeline.mapper.pose_refinement.enabled);
+  } else {  // asked for in a build without it: a clear error, not a silent run without
+    EXPECT_INPUT_ERROR(parseMapToolArguments({"--pose_refinement"}), "--pose_refinement",
+                       "OpenCV features2d and Ceres");
+  }
+}
+
 }  // namespace
 }  // namespace amhmvs

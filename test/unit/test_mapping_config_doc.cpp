@@ -1,5 +1,6 @@
-// config/mapping.yaml documents every estimator option of the table, with the
-// table's default value, under `estimator:`.
+// config/mapping.yaml documents every option of the option tables, with the
+// table's default value: the estimator's under `estimator:`, the pose
+// refinement's under `pose_refinement:`.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -7,28 +8,49 @@
 #include <sstream>
 #include <string>
 
+#include "amhmvs_mapping/mapping/pose_refinement.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
 
-TEST(MappingConfigDoc, EveryEstimatorOptionDocumentedWithItsDefault) {
+namespace {
+
+// The `key: value` lines of a top-level section of config/mapping.yaml.
+std::map<std::string, std::string> documentedOptions(const std::string& section) {
   std::ifstream file(std::string(AMHMVS_SOURCE_DIR) + "/config/mapping.yaml");
-  ASSERT_TRUE(file.good());
+  EXPECT_TRUE(file.good());
   std::map<std::string, std::string> documented;  // option -> value text
-  bool in_estimator = false;
+  bool in_section = false;
   for (std::string line; std::getline(file, line);) {
-    if (line.rfind("estimator:", 0) == 0) { in_estimator = true; continue; }
-    if (!in_estimator || line.rfind("  ", 0) != 0) continue;
+    if (!line.empty() && line[0] != ' ' && line[0] != '#') in_section = line.rfind(section + ":", 0) == 0;
+    if (!in_section || line.rfind("  ", 0) != 0) continue;
     std::istringstream words(line);
     std::string key, value;
     words >> key >> value;
     if (!key.empty() && key.back() == ':') documented[key.substr(0, key.size() - 1)] = value;
   }
-  const amhmvs::PatchMatchOptions defaults;
-  for (const amhmvs::OptionInfo& option : amhmvs::patchMatchOptionTable()) {
+  return documented;
+}
+
+// Every option of `table` in `section` with the default of `Options`.
+template <typename Options>
+void expectDocumented(const std::string& section, const std::vector<amhmvs::OptionField<Options>>& table) {
+  std::map<std::string, std::string> documented = documentedOptions(section);
+  const Options defaults;
+  for (const amhmvs::OptionField<Options>& option : table) {
     SCOPED_TRACE(option.name);
-    ASSERT_TRUE(documented.count(option.name)) << "estimator/" << option.name << " missing in config/mapping.yaml";
-    amhmvs::PatchMatchOptions parsed;
+    ASSERT_TRUE(documented.count(option.name)) << section << "/" << option.name << " missing in config/mapping.yaml";
+    Options parsed;
     option.set(parsed, documented[option.name]);
     EXPECT_EQ(option.get(parsed), option.get(defaults));
   }
-  EXPECT_EQ(documented.size(), amhmvs::patchMatchOptionTable().size());
+  EXPECT_EQ(documented.size(), table.size());
 }
+
+TEST(MappingConfigDoc, EveryEstimatorOptionDocumentedWithItsDefault) {
+  expectDocumented("estimator", amhmvs::patchMatchOptionTable());
+}
+
+TEST(MappingConfigDoc, EveryPoseRefinementOptionDocumentedWithItsDefault) {
+  expectDocumented("pose_refinement", amhmvs::poseRefinementOptionTable());
+}
+
+}  // namespace

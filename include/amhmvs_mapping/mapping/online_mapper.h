@@ -65,6 +65,7 @@
 #include "amhmvs_mapping/mapping/depth_range.h"
 #include "amhmvs_mapping/mapping/fusion.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
+#include "amhmvs_mapping/mapping/pose_refinement.h"
 #include "amhmvs_mapping/mapping/source_selection.h"
 #include "amhmvs_mapping/mapping/voxel_map.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
@@ -107,6 +108,10 @@ struct OnlineMapperOptions {
   VoxelMapOptions map;
   RefinementOptions refinement;
   ConfidenceOptions confidence;
+  // The sources' poses relative to the keyframe refined before its estimate
+  // (pose_refinement.h); for the stereo only: the store, depth maps, fusion
+  // and map keep the tracker's poses.
+  PoseRefinementOptions pose_refinement;
   // The voxel-map update of a fused keyframe runs on a worker thread while
   // the caller goes on (with a GPU estimator: while the next keyframe is
   // estimated, when the CPU would otherwise wait); every later use of the
@@ -156,6 +161,7 @@ struct StageTimes {
   double selection_ms = 0;     // source views
   double depth_range_ms = 0;
   double problem_ms = 0;       // the depth problem (cameras, grey images)
+  double pose_refinement_ms = 0;  // the sources' poses refined (features, matches, bundle adjustment)
   double estimate_ms = 0;      // the estimator, wall clock (its own time: DepthMap::milliseconds)
   double store_ms = 0;         // copies into the keyframe store (keyframe, depth map, fused points)
   double fusion_ms = 0;        // consistency views and checks of the keyframes fused by this result
@@ -177,6 +183,7 @@ struct KeyframeResult {
   SourceSelection selection;
   bool has_depth = false;        // false: no source view (yet), stored as a source only
   DepthRangeEstimate depth_range;  // when has_depth
+  PoseRefinementResult pose_refinement;  // when has_depth: the sources' poses used by the estimate
   Shared<DepthMap> depth;        // when has_depth (shared with the keyframe store)
   PinholeCamera camera;          // the keyframe's camera (pose used)
   // Every keyframe fused by this call, in fusion order (oldest waiting
@@ -300,6 +307,7 @@ class OnlineMapper {
   void noteMapChanged();
 
   OnlineMapperOptions options_;
+  std::unique_ptr<PoseRefiner> pose_refiner_;  // when options_.pose_refinement.enabled
   EstimateFunction estimate_;
   FuseFunction fuse_;
   AgreementFunction agree_;

@@ -1,0 +1,143 @@
+// PoseRefinementOptions, its option table and the result's summaries: in
+// every build (the refiner itself is in src/pose_refinement/).
+#include "amhmvs_mapping/mapping/pose_refinement.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace amhmvs {
+
+std::string PoseRefinementOptions::validate() const {
+  std::ostringstream why;
+  auto require = [&why](bool ok, const char* name, double value, const char* rule) {
+    if (!ok) why << name << " must be " << rule << " (got " << value << ")\n";
+  };
+  require(max_features >= 8, "max_features", max_features, ">= 8");
+  require(ratio_test > 0 && ratio_test <= 1, "ratio_test", ratio_test, "in (0, 1]");
+  require(std::isfinite(inlier_threshold_px) && inlier_threshold_px > 0, "inlier_threshold_px", inlier_threshold_px,
+          "finite and > 0");
+  require(min_inliers >= 6, "min_inliers", min_inliers, ">= 6 (a relative pose has 5 degrees of freedom)");
+  require(std::isfinite(feature_sigma_px) && feature_sigma_px > 0, "feature_sigma_px", feature_sigma_px,
+          "finite and > 0");
+  require(std::isfinite(prior_position_sigma_m) && prior_position_sigma_m > 0, "prior_position_sigma_m",
+          prior_position_sigma_m, "finite and > 0");
+  require(std::isfinite(prior_rotation_sigma_deg) && prior_rotation_sigma_deg > 0, "prior_rotation_sigma_deg",
+          prior_rotation_sigma_deg, "finite and > 0");
+  require(max_iterations >= 1, "max_iterations", max_iterations, ">= 1");
+  require(std::isfinite(min_explained_rms_px) && min_explained_rms_px >= 0, "min_explained_rms_px",
+          min_explained_rms_px, "finite and >= 0");
+  require(std::isfinite(max_correction_m) && max_correction_m > 0, "max_correction_m", max_correction_m,
+          "finite and > 0");
+  require(std::isfinite(max_correction_deg) && max_correction_deg > 0 && max_correction_deg <= 180,
+          "max_correction_deg", max_correction_deg, "in (0, 180]");
+  return why.str();
+}
+
+namespace {
+
+// A true/false option (ROS parameters give "true"/"false", the tools 1/0).
+PoseRefinementOptionInfo switchField(const char* name, bool PoseRefinementOptions::*member, const char* help) {
+  return {name, help, [member](const PoseRefinementOptions& o) { return std::string(o.*member ? "true" : "false"); },
+          [member, name](PoseRefinementOptions& o, const std::string& text) {
+            if (text == "1" || text == "true") o.*member = true;
+            else if (text == "0" || text == "false") o.*member = false;
+            else throw InputError(std::string("option ") + name + ": '" + text + "' is not true/false (1/0)");
+          }};
+}
+
+}  // namespace
+
+const std::vector<PoseRefinementOptionInfo>& poseRefinementOptionTable() {
+  using O = PoseRefinementOptions;
+  static const std::vector<PoseRefinementOptionInfo> table = {
+      switchField("enabled", &O::enabled,
+                  "refine each keyframe's poses relative to its sources before stereo (features + bundle "
+                  "adjustment; depth, clouds and map stay in the tracker's frame)"),
+      numberField("max_features", &O::max_features, "SIFT features per keyframe image"),
+      numberField("ratio_test", &O::ratio_test, "a match's best / second-best descriptor distance, at most"),
+      numberField("inlier_threshold_px", &O::inlier_threshold_px,
+                  "RANSAC and final reprojection inlier threshold, pixels"),
+      numberField("min_inliers", &O::min_inliers, "fewer inliers: the source keeps the tracker's pose"),
+      numberField("feature_sigma_px", &O::feature_sigma_px,
+                  "reprojection noise of a match, pixels (weighs the matches against the prior)"),
+      numberField("prior_position_sigma_m", &O::prior_position_sigma_m,
+                  "prior: the tracker's noise, expected error of each keyframe's position, std dev per axis, m"),
+      numberField("prior_rotation_sigma_deg", &O::prior_rotation_sigma_deg,
+                  "prior: the tracker's noise, expected error of each keyframe's rotation, std dev per axis, deg"),
+      numberField("max_iterations", &O::max_iterations, "bundle-adjustment iterations per solve"),
+      numberField("min_explained_rms_px", &O::min_explained_rms_px,
+                  "a source keeps the tracker's pose unless the refinement explains this much of its epipolar "
+                  "error, sqrt(RMS before^2 - after^2), pixels"),
+      numberField("max_correction_m", &O::max_correction_m,
+                  "a larger shift of a source's centre is rejected (the tracker's pose stays), m"),
+      numberField("max_correction_deg", &O::max_correction_deg,
+                  "a larger rotation of a source is rejected (the tracker's pose stays), deg"),
+  };
+  return table;
+}
+
+bool operator==(const PoseRefinementOptions& a, const PoseRefinementOptions& b) {
+  for (const PoseRefinementOptionInfo& option : poseRefinementOptionTable())
+    if (option.get(a) != option.get(b)) return false;
+  return true;
+}
+
+const char* PoseRefiner::unavailableMessage() {
+  return "this build has no pose refinement: it needs OpenCV features2d and Ceres (libopencv-dev, libceres-dev)";
+}
+
+const char* sourcePoseOutcomeName(SourcePoseOutcome outcome) {
+  switch (outcome) {
+    case SourcePoseOutcome::kRefined: return "refined";
+    case SourcePoseOutcome::kConfirmed: return "confirmed";
+    case SourcePoseOutcome::kTooFewMatches: return "too_few_matches";
+    case SourcePoseOutcome::kRejected: return "rejected";
+  }
+  return "unknown";
+}
+
+namespace {
+
+template <typename Predicate>
+int countSources(const std::vector<SourcePoseRefinement>& sources, Predicate keep) {
+  return static_cast<int>(std::count_if(sources.begin(), sources.end(), keep));
+}
+
+// RMS over the refined sources' inliers of one of their RMS fields.
+double pooledRms(const std::vector<SourcePoseRefinement>& sources, double SourcePoseRefinement::*rms) {
+  double squares = 0;
+  int count = 0;
+  for (const SourcePoseRefinement& source : sources) {
+    if (source.outcome != SourcePoseOutcome::kRefined) continue;
+    squares += source.*rms * source.*rms * source.inliers;
+    count += source.inliers;
+  }
+  return count > 0 ? std::sqrt(squares / count) : 0.0;
+}
+
+double maxOverRefined(const std::vector<SourcePoseRefinement>& sources, double SourcePoseRefinement::*value) {
+  double largest = 0;
+  for (const SourcePoseRefinement& source : sources)
+    if (source.outcome == SourcePoseOutcome::kRefined) largest = std::max(largest, source.*value);
+  return largest;
+}
+
+}  // namespace
+
+int PoseRefinementResult::refinedCount() const {
+  return countSources(sources, [](const SourcePoseRefinement& s) { return s.outcome == SourcePoseOutcome::kRefined; });
+}
+int PoseRefinementResult::rejectedCount() const {
+  return countSources(sources, [](const SourcePoseRefinement& s) { return s.outcome == SourcePoseOutcome::kRejected; });
+}
+double PoseRefinementResult::rmsBeforePx() const { return pooledRms(sources, &SourcePoseRefinement::rms_before_px); }
+double PoseRefinementResult::rmsAfterPx() const { return pooledRms(sources, &SourcePoseRefinement::rms_after_px); }
+double PoseRefinementResult::maxCorrectionM() const {
+  return maxOverRefined(sources, &SourcePoseRefinement::correction_m);
+}
+double PoseRefinementResult::maxCorrectionDeg() const {
+  return maxOverRefined(sources, &SourcePoseRefinement::correction_deg);
+}
+
+}  // namespace amhmvs
