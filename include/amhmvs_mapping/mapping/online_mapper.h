@@ -60,6 +60,7 @@
 #include "amhmvs_mapping/mapping/depth_range.h"
 #include "amhmvs_mapping/mapping/fusion.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
+#include "amhmvs_mapping/mapping/neighbour_depth.h"
 #include "amhmvs_mapping/mapping/source_selection.h"
 #include "amhmvs_mapping/mapping/voxel_map.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
@@ -93,6 +94,8 @@ struct OnlineMapperOptions {
   FusionOptions fusion = FusionOptions::reprojection();
   VoxelMapOptions map;
   RefinementOptions refinement;
+  // Starts and geometric refinements from the neighbours' depth maps (off).
+  NeighbourDepthOptions neighbour_depth;
   // The voxel-map update of a fused keyframe runs on a worker thread while
   // the caller goes on (with a GPU estimator: while the next keyframe is
   // estimated, when the CPU would otherwise wait); every later use of the
