@@ -48,8 +48,10 @@ PlaneMap upsamplePlanes(const ImageViewF& coarse_depth, const ImageViewF& coarse
       const double u = (x + 0.5) * sx - 0.5, v = (y + 0.5) * sy - 0.5;  // in the coarse image
       const int cu = static_cast<int>(std::lround(u)), cv = static_cast<int>(std::lround(v));
       const float guide = fine_image.at(x, y);
-      float weight_sum = 0.0f, depth_sum = 0.0f;
-      Vec3 normal_sum = {0.0f, 0.0f, 0.0f};
+      // The neighbours' planes on this pixel's ray and their log weights.
+      float depths[9], log_weights[9], max_log_weight = -INFINITY;
+      Vec3 normals[9];
+      int count = 0;
       for (int qy = cv - 1; qy <= cv + 1; ++qy) {
         for (int qx = cu - 1; qx <= cu + 1; ++qx) {
           if (qx < 0 || qy < 0 || qx >= coarse_camera.width || qy >= coarse_camera.height) continue;
@@ -63,11 +65,22 @@ PlaneMap upsamplePlanes(const ImageViewF& coarse_depth, const ImageViewF& coarse
           if (!(fine_depth > 0.0f) || !std::isfinite(fine_depth)) continue;
           const float dx = static_cast<float>(qx - u), dy = static_cast<float>(qy - v);
           const float di = guide - static_cast<float>(coarse_image.at(qx, qy));
-          const float w = std::exp(-0.5f * (dx * dx + dy * dy) + intensity_factor * di * di);
-          weight_sum += w;
-          depth_sum += w * fine_depth;
-          normal_sum = normal_sum + w * n;
+          depths[count] = fine_depth;
+          normals[count] = n;
+          log_weights[count] = -0.5f * (dx * dx + dy * dy) + intensity_factor * di * di;
+          max_log_weight = std::max(max_log_weight, log_weights[count]);
+          ++count;
         }
+      }
+      // Weights relative to the largest: no underflow where every neighbour
+      // differs much from the guide.
+      float weight_sum = 0.0f, depth_sum = 0.0f;
+      Vec3 normal_sum = {0.0f, 0.0f, 0.0f};
+      for (int k = 0; k < count; ++k) {
+        const float w = std::exp(log_weights[k] - max_log_weight);
+        weight_sum += w;
+        depth_sum += w * depths[k];
+        normal_sum = normal_sum + w * normals[k];
       }
       if (!(weight_sum > 0.0f) || !(dot(normal_sum, normal_sum) > 0.0f)) continue;
       out.depth.at(x, y) = depth_sum / weight_sum;

@@ -24,8 +24,9 @@ struct PlaneMap {
 // evaluates on its own ray the planes of the 3x3 coarse pixels around it and
 // averages those depths and normals with the weights
 //   w = exp(-(dx^2 + dy^2) / 2) * exp(-(I_fine - I_coarse)^2 / (2 sigma^2))
-// (dx, dy in coarse pixels, intensities 0..255). NaN where no coarse
-// neighbour has a valid plane.
+// (dx, dy in coarse pixels, intensities 0..255; computed relative to the
+// largest, so that they never all underflow). NaN where no coarse neighbour
+// has a valid plane.
 constexpr float kUpsamplingSigmaIntensity = 10.0f;
 PlaneMap upsamplePlanes(const ImageViewF& coarse_depth, const ImageViewF& coarse_normal,
                         const PinholeCamera& coarse_camera, const ImageViewU8& coarse_image,
