@@ -100,6 +100,12 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "refinement/keep_only_better", &o->refinement.keep_only_better);
   read(nh, "refinement/confident_cost", &o->refinement.confident_cost);
   read(nh, "refinement/max_confident_loss", &o->refinement.max_confident_loss);
+
+  read(nh, "neighbour_depth/start_from_neighbours", &o->neighbour_depth.start_from_neighbours);
+  read(nh, "neighbour_depth/start_iterations", &o->neighbour_depth.start_iterations);
+  read(nh, "neighbour_depth/start_max_cost", &o->neighbour_depth.start_max_cost);
+  read(nh, "neighbour_depth/geometric_refinement", &o->neighbour_depth.geometric_refinement);
+  read(nh, "neighbour_depth/geometric_iterations", &o->neighbour_depth.geometric_iterations);
 }
 
 // Each group of the mapping core checked on its own: a bad group is
@@ -195,6 +201,7 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
   requireValid("fusion", &c.mapper.fusion, defaults.mapper.fusion, &err);
   requireValid("map", &c.mapper.map, defaults.mapper.map, &err);
   requireValid("refinement", &c.mapper.refinement, defaults.mapper.refinement, &err);
+  requireValid("neighbour_depth", &c.mapper.neighbour_depth, defaults.mapper.neighbour_depth, &err);
 
   // Estimator options: every entry of the option table, as ~estimator/<name>.
   for (const amhmvs::OptionInfo& option : amhmvs::patchMatchOptionTable()) {
