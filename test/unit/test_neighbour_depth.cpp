@@ -43,20 +43,34 @@ Given inspect(const DepthProblem& problem) {
   return given;
 }
 
-TEST(NeighbourDepth, OffByDefaultTheEstimatorGetsNoPriorAndNoDepthMaps) {
+// A mapper whose estimates record what they were given.
+struct RecordingMapper {
+  explicit RecordingMapper(const OnlineMapperOptions& options)
+      : mapper(options, [this](const DepthProblem& problem) {
+          calls.push_back(inspect(problem));
+          return wallDepth(problem);
+        }) {}
+  // Keyframes 0, 1 (from 0, which has no depth map yet), 0 late (from 1),
+  // 2 (from 0 and 1): three first estimates.
+  void estimateThreeKeyframes() {
+    KeyframeResult result;
+    mapper.process(keyframeAt(0, 0.0));
+    mapper.process(keyframeAt(1, 0.5));
+    ASSERT_TRUE(mapper.estimateLate(&result));
+    mapper.process(keyframeAt(2, 1.0));
+    ASSERT_EQ(calls.size(), 3u);
+  }
   std::vector<Given> calls;
-  OnlineMapper mapper(wallOptions(), [&](const DepthProblem& problem) {
-    calls.push_back(inspect(problem));
-    return wallDepth(problem);
-  });
+  OnlineMapper mapper;
+};
+
+TEST(NeighbourDepth, OffByDefaultTheEstimatorGetsNoPriorAndNoDepthMaps) {
+  RecordingMapper recording(wallOptions());
+  recording.estimateThreeKeyframes();
   KeyframeResult result;
-  mapper.process(keyframeAt(0, 0.0));
-  mapper.process(keyframeAt(1, 0.5));
-  mapper.estimateLate(&result);
-  mapper.process(keyframeAt(2, 1.0));
-  ASSERT_TRUE(mapper.refine(&result));
-  ASSERT_EQ(calls.size(), 4u);
-  for (const Given& given : calls) {
+  ASSERT_TRUE(recording.mapper.refine(&result));
+  ASSERT_EQ(recording.calls.size(), 4u);
+  for (const Given& given : recording.calls) {
     EXPECT_FALSE(given.prior);
     EXPECT_TRUE(given.source_depths.empty());
   }
@@ -66,21 +80,10 @@ TEST(NeighbourDepth, NewKeyframeStartsFromItsSourcesDepthOnTheWall) {
   OnlineMapperOptions options = wallOptions();
   options.neighbour_depth.start_from_neighbours = true;
   options.neighbour_depth.start_iterations = 2;
-  std::vector<Given> calls;
-  OnlineMapper mapper(options, [&](const DepthProblem& problem) {
-    calls.push_back(inspect(problem));
-    return wallDepth(problem);
-  });
-  KeyframeResult result;
-  mapper.process(keyframeAt(0, 0.0));
-  mapper.process(keyframeAt(1, 0.5));  // source 0 has no depth map yet: random start
-  ASSERT_EQ(calls.size(), 1u);
-  EXPECT_FALSE(calls[0].prior);
-  ASSERT_TRUE(mapper.estimateLate(&result));  // keyframe 0 from keyframe 1's depth
-  ASSERT_EQ(calls.size(), 2u);
-  EXPECT_TRUE(calls[1].prior);
-  mapper.process(keyframeAt(2, 1.0));  // from 0 and 1
-  ASSERT_EQ(calls.size(), 3u);
+  RecordingMapper recording(options);
+  recording.estimateThreeKeyframes();
+  const std::vector<Given>& calls = recording.calls;
+  EXPECT_FALSE(calls[0].prior);  // keyframe 1: its source has no depth map yet, a random start
   for (size_t i = 1; i < calls.size(); ++i) {
     SCOPED_TRACE(i);
     EXPECT_TRUE(calls[i].prior);
@@ -97,21 +100,14 @@ TEST(NeighbourDepth, GeometricRefinementUsesTheSourcesDepthMapsFromItsOwn) {
   OnlineMapperOptions options = wallOptions();
   options.neighbour_depth.geometric_refinement = true;
   options.neighbour_depth.geometric_iterations = 4;
-  std::vector<Given> calls;
-  OnlineMapper mapper(options, [&](const DepthProblem& problem) {
-    calls.push_back(inspect(problem));
-    return wallDepth(problem);
-  });
-  KeyframeResult result;
-  mapper.process(keyframeAt(0, 0.0));
-  mapper.process(keyframeAt(1, 0.5));
-  ASSERT_TRUE(mapper.estimateLate(&result));
-  mapper.process(keyframeAt(2, 1.0));
-  ASSERT_EQ(calls.size(), 3u);
+  RecordingMapper recording(options);
+  recording.estimateThreeKeyframes();
+  const std::vector<Given>& calls = recording.calls;
   for (const Given& given : calls) EXPECT_TRUE(given.source_depths.empty());  // first estimates: photometric
   // Keyframe 0 is refined with {1, 2}: both have depth maps; it starts from
   // its own (the wall: every pixel).
-  ASSERT_TRUE(mapper.refine(&result));
+  KeyframeResult result;
+  ASSERT_TRUE(recording.mapper.refine(&result));
   EXPECT_EQ(result.id, 0);
   ASSERT_EQ(calls.size(), 4u);
   EXPECT_EQ(calls[3].source_depths, (std::vector<bool>{true, true}));
