@@ -48,7 +48,7 @@ DepthMap estimateCoarseToFine(const PatchMatchOptions& options, const DepthProbl
   const PinholeCamera& reference = problem.reference_camera;
   const int scales =
       static_cast<int>(scaleSizes(reference.width, reference.height, options.multiscale_levels, options.window_radius).size());
-  if (scales == 1 || problem.prior_depth.data) return estimate(single, problem);
+  if (scales == 1 || !problem.source_depths.empty()) return estimate(single, problem);
 
   // Coarse problems, coarsest first; the full-scale problem is the caller's.
   std::vector<OwnedDepthProblem> coarse;
@@ -59,11 +59,16 @@ DepthMap estimateCoarseToFine(const PatchMatchOptions& options, const DepthProbl
 
   DepthMap map;
   PlaneMap prior;
+  const bool given_start = problem.prior_depth.data != nullptr;
+  if (given_start) {
+    prior = resamplePlanes(problem.prior_depth, problem.prior_normal, reference, problem.reference_image,
+                           coarse[0].problem.reference_camera, coarse[0].problem.reference_image);
+  }
   double milliseconds = 0, compute_milliseconds = 0;
   for (int scale = 0; scale < scales; ++scale) {
     const bool full = scale + 1 == scales;
     DepthProblem scale_problem = full ? problem : coarse[scale].problem;
-    if (scale > 0) {
+    if (scale > 0 || given_start) {
       scale_problem.prior_depth = prior.depth;
       scale_problem.prior_normal = prior.normal;
     }
@@ -72,7 +77,7 @@ DepthMap estimateCoarseToFine(const PatchMatchOptions& options, const DepthProbl
     compute_milliseconds += map.compute_milliseconds;
     if (full) break;
     const DepthProblem& next = scale + 2 == scales ? problem : coarse[scale + 1].problem;
-    prior = upsamplePlanes(map.depth, map.normal, scale_problem.reference_camera, scale_problem.reference_image,
+    prior = resamplePlanes(map.depth, map.normal, scale_problem.reference_camera, scale_problem.reference_image,
                            next.reference_camera, next.reference_image);
   }
   map.milliseconds = milliseconds;

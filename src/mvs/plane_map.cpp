@@ -33,39 +33,39 @@ void checkSize(const PlaneMapView& view, size_t index) {
 
 }  // namespace
 
-PlaneMap upsamplePlanes(const ImageViewF& coarse_depth, const ImageViewF& coarse_normal,
-                        const PinholeCamera& coarse_camera, const ImageViewU8& coarse_image,
-                        const PinholeCamera& fine_camera, const ImageViewU8& fine_image, float sigma_intensity) {
-  const int fine_width = fine_camera.width, fine_height = fine_camera.height;
-  PlaneMap out{ImageF(fine_width, fine_height, 1, std::nanf("")), ImageF(fine_width, fine_height, 3, 0.0f)};
-  const double sx = static_cast<double>(coarse_camera.width) / fine_width;
-  const double sy = static_cast<double>(coarse_camera.height) / fine_height;
+PlaneMap resamplePlanes(const ImageViewF& from_depth, const ImageViewF& from_normal,
+                        const PinholeCamera& from_camera, const ImageViewU8& from_image,
+                        const PinholeCamera& to_camera, const ImageViewU8& to_image, float sigma_intensity) {
+  const int to_width = to_camera.width, to_height = to_camera.height;
+  PlaneMap out{ImageF(to_width, to_height, 1, std::nanf("")), ImageF(to_width, to_height, 3, 0.0f)};
+  const double sx = static_cast<double>(from_camera.width) / to_width;
+  const double sy = static_cast<double>(from_camera.height) / to_height;
   const float intensity_factor = -0.5f / (sigma_intensity * sigma_intensity);
 #pragma omp parallel for schedule(static)
-  for (int y = 0; y < fine_height; ++y) {
-    for (int x = 0; x < fine_width; ++x) {
-      const Vec3 fine_ray = cameraRay(fine_camera, x, y);
-      const double u = (x + 0.5) * sx - 0.5, v = (y + 0.5) * sy - 0.5;  // in the coarse image
+  for (int y = 0; y < to_height; ++y) {
+    for (int x = 0; x < to_width; ++x) {
+      const Vec3 to_ray = cameraRay(to_camera, x, y);
+      const double u = (x + 0.5) * sx - 0.5, v = (y + 0.5) * sy - 0.5;  // in the `from` image
       const int cu = static_cast<int>(std::lround(u)), cv = static_cast<int>(std::lround(v));
-      const float guide = fine_image.at(x, y);
+      const float guide = to_image.at(x, y);
       // The neighbours' planes on this pixel's ray and their log weights.
       float depths[9], log_weights[9], max_log_weight = -INFINITY;
       Vec3 normals[9];
       int count = 0;
       for (int qy = cv - 1; qy <= cv + 1; ++qy) {
         for (int qx = cu - 1; qx <= cu + 1; ++qx) {
-          if (qx < 0 || qy < 0 || qx >= coarse_camera.width || qy >= coarse_camera.height) continue;
-          const float depth = coarse_depth.at(qx, qy);
-          const Vec3 n = {coarse_normal.at(qx, qy, 0), coarse_normal.at(qx, qy, 1), coarse_normal.at(qx, qy, 2)};
+          if (qx < 0 || qy < 0 || qx >= from_camera.width || qy >= from_camera.height) continue;
+          const float depth = from_depth.at(qx, qy);
+          const Vec3 n = {from_normal.at(qx, qy, 0), from_normal.at(qx, qy, 1), from_normal.at(qx, qy, 2)};
           if (!(depth > 0.0f) || !(dot(n, n) > 0.5f)) continue;
-          // The coarse pixel's plane (camera frame: the same at every scale)
+          // The `from` pixel's plane (camera frame: the same at every scale)
           // on the fine pixel's ray.
-          const Plane plane = planeFromDepthNormal(n, depth, cameraRay(coarse_camera, qx, qy));
-          const float fine_depth = planeDepth(plane, fine_ray);
-          if (!(fine_depth > 0.0f) || !std::isfinite(fine_depth)) continue;
+          const Plane plane = planeFromDepthNormal(n, depth, cameraRay(from_camera, qx, qy));
+          const float to_depth = planeDepth(plane, to_ray);
+          if (!(to_depth > 0.0f) || !std::isfinite(to_depth)) continue;
           const float dx = static_cast<float>(qx - u), dy = static_cast<float>(qy - v);
-          const float di = guide - static_cast<float>(coarse_image.at(qx, qy));
-          depths[count] = fine_depth;
+          const float di = guide - static_cast<float>(from_image.at(qx, qy));
+          depths[count] = to_depth;
           normals[count] = n;
           log_weights[count] = -0.5f * (dx * dx + dy * dy) + intensity_factor * di * di;
           max_log_weight = std::max(max_log_weight, log_weights[count]);

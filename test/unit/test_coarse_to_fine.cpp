@@ -74,16 +74,30 @@ TEST(CoarseToFine, CoarsestScaleRunsTheFullScheduleFinerOnesRefineTheUpsampledSt
   EXPECT_DOUBLE_EQ(map.milliseconds, 20.0);
   EXPECT_DOUBLE_EQ(map.compute_milliseconds, 8.0);
 
-  // A problem with its own prior runs once, at full scale, from it.
+  // A problem with its own prior: it starts the coarsest scale (the 3 m
+  // planes carried there); one with source depth maps (a geometric pass)
+  // runs once, at full scale.
   calls.clear();
   const ImageF depth(160, 120, 1, 3.0f), normal(160, 120, 3, -0.5f);
   scene.problem.prior_depth = depth;
   scene.problem.prior_normal = normal;
-  estimateCoarseToFine(options, scene.problem, [&](const PatchMatchOptions& o, const DepthProblem& p) {
+  const auto record = [&](const PatchMatchOptions& o, const DepthProblem& p) {
     calls.push_back({p.reference_camera.width, p.reference_camera.height, o.num_iterations, o.first_iteration,
                      o.multiscale_levels, p.prior_depth.data != nullptr});
-    return DepthMap();
-  });
+    DepthMap out;
+    out.depth = ImageF(p.reference_camera.width, p.reference_camera.height, 1, 3.0f);
+    out.normal = ImageF(p.reference_camera.width, p.reference_camera.height, 3, -0.5f);
+    return out;
+  };
+  estimateCoarseToFine(options, scene.problem, record);
+  ASSERT_EQ(calls.size(), 2u);
+  EXPECT_EQ(calls[0].width, 80);
+  EXPECT_TRUE(calls[0].prior);
+  EXPECT_EQ(calls[0].iterations, 6);
+  EXPECT_TRUE(calls[1].prior);
+  calls.clear();
+  scene.problem.source_depths.assign(2, ImageViewF());
+  estimateCoarseToFine(options, scene.problem, record);
   ASSERT_EQ(calls.size(), 1u);
   EXPECT_EQ(calls[0].width, 160);
   EXPECT_EQ(calls[0].iterations, 6);

@@ -44,7 +44,7 @@ TEST(PlaneMap, UpsamplingIsExactOnAPlane) {
   const PinholeCamera coarse = fine.resized(41, 31);
   const PlaneMap coarse_map = planeIn(coarse);
   const ImageU8 coarse_image = noiseImage(41, 31, 1), fine_image = noiseImage(81, 61, 2);
-  const PlaneMap up = upsamplePlanes(coarse_map.depth, coarse_map.normal, coarse, coarse_image, fine, fine_image);
+  const PlaneMap up = resamplePlanes(coarse_map.depth, coarse_map.normal, coarse, coarse_image, fine, fine_image);
   const PlaneMap truth = planeIn(fine);
   ASSERT_TRUE(up.depth.sameSize(81, 61));
   for (int y = 0; y < fine.height; ++y) {
@@ -71,7 +71,7 @@ TEST(PlaneMap, UpsamplingFollowsTheFineImageAtADepthEdge) {
   }
   for (int y = 0; y < 20; ++y)
     for (int x = 0; x < 40; ++x) fine_image.at(x, y) = x < 20 ? 50 : 200;
-  const PlaneMap up = upsamplePlanes(coarse_map.depth, coarse_map.normal, coarse, coarse_image, fine, fine_image);
+  const PlaneMap up = resamplePlanes(coarse_map.depth, coarse_map.normal, coarse, coarse_image, fine, fine_image);
   // The fine pixels next to the edge (19 and 20) keep their side's depth: the
   // other side's coarse pixels differ by 150 levels (weight e^-112).
   for (int y = 0; y < 20; ++y) {
@@ -80,7 +80,7 @@ TEST(PlaneMap, UpsamplingFollowsTheFineImageAtADepthEdge) {
   }
   // Without the guide (one grey level everywhere) the edge is blurred.
   const ImageU8 flat_coarse(20, 10, 1, 100), flat_fine(40, 20, 1, 100);
-  const PlaneMap blurred = upsamplePlanes(coarse_map.depth, coarse_map.normal, coarse, flat_coarse, fine, flat_fine);
+  const PlaneMap blurred = resamplePlanes(coarse_map.depth, coarse_map.normal, coarse, flat_coarse, fine, flat_fine);
   EXPECT_GT(blurred.depth.at(19, 5), 2.1f);
 }
 
@@ -91,7 +91,7 @@ TEST(PlaneMap, UpsamplingLeavesNaNWhereNoCoarsePixelHasAPlane) {
   for (int y = 0; y < 10; ++y)
     for (int x = 5; x < 10; ++x) coarse_map.depth.at(x, y) = std::nanf("");
   const ImageU8 coarse_image(10, 10, 1, 90), fine_image(20, 20, 1, 90);
-  const PlaneMap up = upsamplePlanes(coarse_map.depth, coarse_map.normal, coarse, coarse_image, fine, fine_image);
+  const PlaneMap up = resamplePlanes(coarse_map.depth, coarse_map.normal, coarse, coarse_image, fine, fine_image);
   EXPECT_TRUE(std::isnan(up.depth.at(19, 10)));  // coarse 9 and its neighbours 8, 10: none valid
   EXPECT_EQ(up.normal.at(19, 10, 2), 0.0f);
   EXPECT_TRUE(std::isfinite(up.depth.at(10, 10)));  // coarse 5 has 4 as a neighbour

@@ -6,16 +6,17 @@
 //
 //   1. the problem at the coarsest scale (every image area-downsampled by
 //      2^(levels-1), cameras scaled about pixel centres): the full schedule
-//      from random planes;
-//   2. its planes carried to the next finer scale (upsamplePlanes), the
+//      from random planes, or from the problem's own prior carried to that
+//      scale (with its schedule, DepthProblem::prior_iterations);
+//   2. its planes carried to the next finer scale (resamplePlanes), the
 //      prior start of that scale's estimate, which runs
 //      options.multiscale_iterations iterations numbered from
 //      bisection_only_iterations (local refinement, as a geometric pass);
 //   3. repeated up to the full scale, whose result is returned.
 //
-// A driver above the backends: both run it unchanged. Only the full scale
-// carries the problem's source depth maps (geometric term); a problem that
-// brings its own prior starts from it at full scale (single scale).
+// A driver above the backends: both run it unchanged. A problem with source
+// depth maps (a geometric pass, refining a map of its own scale) runs at a
+// single scale.
 #pragma once
 
 #include <functional>

@@ -58,7 +58,8 @@ struct DepthProblem {
   // With a prior: 0 runs the estimator's schedule from it; N > 0 runs N
   // iterations of local refinement instead (numbered from the estimator's
   // bisection_only_iterations, as the geometric pass), for a start that is
-  // near the answer already. A prior always runs at a single scale.
+  // near the answer already. With several scales (multiscale), the prior
+  // starts the coarsest one.
   int prior_iterations = 0;
 
   // Empty when the problem can be solved; otherwise what is wrong (which view,

@@ -1,6 +1,6 @@
 // Per-pixel plane maps (a depth map with its normals) carried to another
 // camera, as the start (prior_depth / prior_normal) of an estimate:
-//   - upsamplePlanes: the same view at a finer scale (coarse_to_fine.h);
+//   - resamplePlanes: the same view at another scale (coarse_to_fine.h);
 //   - reprojectPlanes: other views' maps into a new view (a new keyframe
 //     starts from its neighbours' depth; mapping/neighbour_depth.h).
 // Both carry planes, not depths: a pixel's plane is evaluated on the ray of
@@ -20,18 +20,18 @@ struct PlaneMap {
   ImageF normal;  // unit normal in the camera frame, 3 channels; 0 where no depth
 };
 
-// Joint bilateral upsampling guided by the fine image: each fine pixel
-// evaluates on its own ray the planes of the 3x3 coarse pixels around it and
-// averages those depths and normals with the weights
-//   w = exp(-(dx^2 + dy^2) / 2) * exp(-(I_fine - I_coarse)^2 / (2 sigma^2))
-// (dx, dy in coarse pixels, intensities 0..255; computed relative to the
-// largest, so that they never all underflow). NaN where no coarse neighbour
-// has a valid plane.
-constexpr float kUpsamplingSigmaIntensity = 10.0f;
-PlaneMap upsamplePlanes(const ImageViewF& coarse_depth, const ImageViewF& coarse_normal,
-                        const PinholeCamera& coarse_camera, const ImageViewU8& coarse_image,
-                        const PinholeCamera& fine_camera, const ImageViewU8& fine_image,
-                        float sigma_intensity = kUpsamplingSigmaIntensity);
+// The planes of a view at one scale carried to another scale of the same
+// view (joint bilateral upsampling when `to` is finer, guided by its image):
+// each pixel of `to` evaluates on its own ray the planes of the 3x3 pixels of
+// `from` around it and averages those depths and normals with the weights
+//   w = exp(-(dx^2 + dy^2) / 2) * exp(-(I_to - I_from)^2 / (2 sigma^2))
+// (dx, dy in `from` pixels, intensities 0..255; computed relative to the
+// largest, so that they never all underflow). NaN where none of those 3x3
+// pixels has a valid plane.
+constexpr float kResamplingSigmaIntensity = 10.0f;
+PlaneMap resamplePlanes(const ImageViewF& from_depth, const ImageViewF& from_normal, const PinholeCamera& from_camera,
+                        const ImageViewU8& from_image, const PinholeCamera& to_camera, const ImageViewU8& to_image,
+                        float sigma_intensity = kResamplingSigmaIntensity);
 
 // One view's plane map with its camera (maps at the camera's size).
 struct PlaneMapView {
