@@ -467,10 +467,9 @@ int main(int argc, char** argv) {
     }
     if (wants("multiscale")) {
       // The coarse-to-fine driver (estimator option multiscale): 2 scales,
-      // the finer one 1 iteration from the coarser one's planes.
+      // the finer one multiscale_iterations (2) from the coarser one's planes.
       PatchMatchOptions two_scales;
       two_scales.multiscale_levels = 2;
-      two_scales.multiscale_iterations = 1;
       if (gpu) {
         const SyntheticProblem vga = makeSyntheticProblem(640, 480, 4);
         rows.push_back(measure("synthetic, 2 scales", vga.problem, Backend::kCuda, 6, runs, 0, two_scales));

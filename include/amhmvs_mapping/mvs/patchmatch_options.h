@@ -73,7 +73,7 @@ struct PatchMatchOptions {
   // for multiscale_iterations iterations of local refinement. 1: single scale
   // (the paper).
   int multiscale_levels = 1;
-  int multiscale_iterations = 3;
+  int multiscale_iterations = 2;
 
   // --- Post-processing ---
   int median_filter_size = 4;  // paper: 4x4 median on depth; 0 or 1 disables
