@@ -52,6 +52,8 @@ set(AMHMVS_CORE_SOURCES
   src/mvs/patchmatch_options.cpp
   src/mvs/propagation_pattern.cpp
   src/mvs/depth_estimator.cpp
+  src/mvs/coarse_to_fine.cpp
+  src/mvs/plane_map.cpp
   src/mvs/cpu_backend.cpp
   src/mvs/problem_builder.cpp
 )

@@ -60,15 +60,17 @@ std::vector<Span> coverage(int src, int dst) {
 
 }  // namespace
 
-ImageU8 resizeArea(const ImageU8& image, int width, int height) {
+ImageU8 resizeArea(const ImageViewU8& image, int width, int height) {
   if (width <= 0 || height <= 0) {
     throw InputError("resizeArea: target size must be positive, got " + std::to_string(width) +
                      "x" + std::to_string(height));
   }
-  if (image.empty() || image.width <= 0 || image.height <= 0) {
-    throw InputError("resizeArea: input image is empty");
+  if (image.empty()) throw InputError("resizeArea: input image is empty");
+  if (image.sameSize(width, height)) {
+    ImageU8 copy(width, height, image.channels);
+    std::copy(image.data, image.data + copy.data.size(), copy.data.begin());
+    return copy;
   }
-  if (image.sameSize(width, height)) return image;
 
   const int c = image.channels;
   const std::vector<Span> xs = coverage(image.width, width);

@@ -78,6 +78,7 @@ std::string OnlineMapperOptions::validate() const {
   appendProblems("refinement", refinement.validate(), &out);
   appendProblems("confidence", confidence.validate(), &out);
   appendProblems("pose_refinement", pose_refinement.validate(), &out);
+  appendProblems("neighbour_depth", neighbour_depth.validate(), &out);
   if (fusion.min_consistent_views > kMaxSourceViews)
     out << "fusion: min_consistent_views must be at most " << kMaxSourceViews << " (the most consistency views)\n";
   return out.str();
@@ -208,6 +209,9 @@ void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
   }
   problem.depth_min = result->depth_range.min;
   problem.depth_max = result->depth_range.max;
+  // The problem borrows the start's pixels from here.
+  const NeighbourDepthInputs neighbour_inputs =
+      attachNeighbourDepth(store_, id, sources, result->refined, options_.neighbour_depth, &problem);
   result->times.problem_ms = millisecondsSince(start);
   if (pose_refiner_) {
     // The sources' cameras of this problem only; the store keeps the tracker's.

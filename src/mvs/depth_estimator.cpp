@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mvs/coarse_to_fine.h"
 #include "backends.h"
 
 namespace amhmvs {
@@ -82,6 +83,9 @@ std::string DepthProblem::validate() const {
         << ") and normal (" << prior_normal.width << "x" << prior_normal.height << "x" << prior_normal.channels
         << ") maps must be 1 and 3 channels at the reference size " << reference_camera.width << "x"
         << reference_camera.height << "\n";
+  }
+  if (prior_iterations < 0 || prior_iterations > 100) {
+    why << "prior_iterations " << prior_iterations << " must be in 0..100 (0: the estimator's schedule)\n";
   }
   if (!(std::isfinite(depth_min) && std::isfinite(depth_max) && depth_min > 0 &&
         depth_max > depth_min)) {
@@ -190,12 +194,21 @@ DepthEstimator::~DepthEstimator() = default;
 DepthMap DepthEstimator::estimate(const DepthProblem& problem) const {
   const std::string problems = problem.validate();
   if (!problems.empty()) throw InputError("invalid depth problem:\n" + problems);
-  const mvs::PatchMatchParams params = mvs::makePatchMatchParams(options_, problem);
-  if (backend_ == Backend::kCuda) {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    return mvs::estimateOnCuda(*cuda_, options_, params, problem);
+  PatchMatchOptions options = options_;
+  if (problem.prior_depth.data && problem.prior_iterations > 0) {
+    options.num_iterations = problem.prior_iterations;
+    options.first_iteration = options.bisection_only_iterations;
   }
-  return mvs::estimateOnCpu(options_, params, problem);
+  // Every scale of a coarse-to-fine estimate runs on this estimator's backend.
+  return mvs::estimateCoarseToFine(options, problem, [this](const PatchMatchOptions& options,
+                                                             const DepthProblem& scale_problem) {
+    const mvs::PatchMatchParams params = mvs::makePatchMatchParams(options, scale_problem);
+    if (backend_ == Backend::kCuda) {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      return mvs::estimateOnCuda(*cuda_, options, params, scale_problem);
+    }
+    return mvs::estimateOnCpu(options, params, scale_problem);
+  });
 }
 
 void DepthEstimator::forget(int64_t key) {

@@ -63,6 +63,10 @@ const std::vector<OptionInfo>& patchMatchOptionTable() {
                   "geometric pass: cost per pixel of forward-backward reprojection error (not in the paper)"),
       numberField("geometric_max_error", &O::geometric_max_error,
                   "geometric pass: reprojection error cap in pixels (not in the paper)"),
+      numberField("multiscale", &O::multiscale_levels,
+                  "coarse-to-fine scales, each half the next; 1: single scale, the paper (not in the paper)"),
+      numberField("multiscale_iterations", &O::multiscale_iterations,
+                  "iterations at each finer scale, from the coarser scale's planes (not in the paper)"),
       numberField("median_filter", &O::median_filter_size, "median filter size on depth (paper: 4; 0 or 1: off)"),
   };
   return table;
@@ -107,6 +111,8 @@ std::string PatchMatchOptions::validate() const {
   require(std::isfinite(geometric_max_error) && geometric_max_error > 0 && geometric_max_error <= 100,
           "geometric_max_error must be in (0, 100] pixels");
   require(first_iteration >= 0 && first_iteration <= 100, "first_iteration must be in 0..100");
+  require(multiscale_levels >= 1 && multiscale_levels <= 6, "multiscale must be in 1..6");
+  require(multiscale_iterations >= 1 && multiscale_iterations <= 100, "multiscale_iterations must be in 1..100");
   require(median_filter_size >= 0 && median_filter_size <= 8, "median_filter must be in 0..8");
   return why.str();
 }

@@ -101,6 +101,11 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "refinement/confident_cost", &o->refinement.confident_cost);
   read(nh, "refinement/max_confident_loss", &o->refinement.max_confident_loss);
 
+  read(nh, "neighbour_depth/start_from_neighbours", &o->neighbour_depth.start_from_neighbours);
+  read(nh, "neighbour_depth/start_iterations", &o->neighbour_depth.start_iterations);
+  read(nh, "neighbour_depth/start_max_cost", &o->neighbour_depth.start_max_cost);
+  read(nh, "neighbour_depth/geometric_refinement", &o->neighbour_depth.geometric_refinement);
+  read(nh, "neighbour_depth/geometric_iterations", &o->neighbour_depth.geometric_iterations);
   read(nh, "confidence/enabled", &o->confidence.enabled);
   double min_probability = o->confidence.min_probability;
   read(nh, "confidence/min_probability", &min_probability);
@@ -232,6 +237,7 @@ MappingConfig loadMappingConfig(const ros::NodeHandle& pnh, std::string* errors)
   requireValid("map", &c.mapper.map, defaults.mapper.map, &err);
   requireValid("refinement", &c.mapper.refinement, defaults.mapper.refinement, &err);
   requireValid("confidence", &c.mapper.confidence, defaults.mapper.confidence, &err);
+  requireValid("neighbour_depth", &c.mapper.neighbour_depth, defaults.mapper.neighbour_depth, &err);
 
   // Pose refinement and estimator options: every entry of their option
   // tables, as ~pose_refinement/<name> and ~estimator/<name>.

@@ -8,8 +8,8 @@
 //
 // usage: amhmvs_benchmark [DATA_DIR] [--out FILE] [--runs N] [--cpu-threads N] [--quick]
 //                         [--only SCENE[,SCENE...]]  (fountain_x0.25 ... fountain_x1,
-//                                           synthetic, scaling, cpu, cpu-scaling, fusion,
-//                                           map, pipeline, replay, pose)
+//                                           synthetic, scaling, cpu, multiscale, cpu-scaling,
+//                                           fusion, map, pipeline, replay, pose)
 //                         [--replay N]     keyframes of the memory replay (10000)
 //                         [--map-foreground] the replay updates the voxel map in its own thread
 //
@@ -25,6 +25,8 @@
 // cpu rows the CPU backend at 320x240 and 640x480 (4 sources, --cpu-threads),
 // the cpu-scaling rows 320x240 at 1, 2, 4 and 8 threads (up to the core count);
 // pose: the pose refinement before stereo (pose_refinement_benchmark.h).
+// the multiscale rows the coarse-to-fine driver (2 scales) at 640x480 (GPU)
+// and 320x240 (CPU), 4 sources.
 // DATA_DIR holds mvsnet/fountain_x0.25, fountain_x0.5, fountain_x1 dense
 // folders with decodable images (see scripts/prepare_gpu_data.py); rows whose
 // folder is missing are skipped.
@@ -80,11 +82,10 @@ bool exists(const std::string& path) {
 }
 
 Row measure(const std::string& scene, const DepthProblem& problem, Backend backend,
-            int iterations, int runs, int threads) {
+            int iterations, int runs, int threads, PatchMatchOptions options = PatchMatchOptions()) {
 #ifdef _OPENMP
   if (backend == Backend::kCpu) omp_set_num_threads(threads);
 #endif
-  PatchMatchOptions options;
   options.num_iterations = iterations;
   const DepthEstimator estimator(options, backend);
   estimator.estimate(problem);  // warm-up: module load, allocation paths
@@ -532,6 +533,19 @@ int main(int argc, char** argv) {
         const SyntheticProblem p = makeSyntheticProblem(size.first, size.second, 4);
         rows.push_back(measure("synthetic", p.problem, Backend::kCpu, 6, quick ? 1 : runs, cpu_threads));
       }
+    }
+    if (wants("multiscale")) {
+      // The coarse-to-fine driver (estimator option multiscale): 2 scales,
+      // the finer one multiscale_iterations (2) from the coarser one's planes.
+      PatchMatchOptions two_scales;
+      two_scales.multiscale_levels = 2;
+      if (gpu) {
+        const SyntheticProblem vga = makeSyntheticProblem(640, 480, 4);
+        rows.push_back(measure("synthetic, 2 scales", vga.problem, Backend::kCuda, 6, runs, 0, two_scales));
+      }
+      const SyntheticProblem qvga = makeSyntheticProblem(320, 240, 4);
+      rows.push_back(
+          measure("synthetic, 2 scales", qvga.problem, Backend::kCpu, 6, quick ? 1 : runs, cpu_threads, two_scales));
     }
     if (wants("cpu-scaling")) {
       // The CPU backend at 1, 2, 4, 8 threads, as far as the machine has cores.

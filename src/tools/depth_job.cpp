@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <future>
 #include <iostream>
 #include <map>
@@ -123,6 +124,24 @@ std::vector<std::function<void()>> depthOutputJobs(const std::string& dir, const
   return jobs;
 }
 
+// Ground truth of view `id` sampled at width x height (nearest pixel):
+// DIR/NNNNNNNN.pfm, or in a Middlebury 2014 scene folder (disp0GT.pfm) view
+// 0's non-occluded depth (NaN elsewhere; the other views have none: false).
+bool readGroundTruth(const std::string& dir, int id, int width, int height, ImageF* truth) {
+  std::ifstream middlebury(dir + "/disp0GT.pfm");
+  if (!middlebury.good()) {
+    *truth = resampleNearest(readPfm(dir + "/" + viewFolderName(id) + ".pfm"), width, height);
+    return true;
+  }
+  if (id != 0) return false;
+  MiddleburyGroundTruth gt = readMiddleburyGroundTruth(dir);
+  for (size_t p = 0; p < gt.depth.data.size(); ++p) {
+    if (gt.nonoccluded.data[p] == 0) gt.depth.data[p] = std::nanf("");
+  }
+  *truth = resampleNearest(gt.depth, width, height);
+  return true;
+}
+
 }  // namespace
 
 void writeDepthOutputs(const std::string& output_dir, int view_id, const PinholeCamera& camera,
@@ -219,11 +238,9 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
     if (on_result) on_result(ids[i], problem, map);
     ++written;
     std::string accuracy;
-    if (!options.ground_truth_dir.empty()) {
-      // Ground truth sampled at the processed resolution (nearest pixel).
-      const ImageF truth =
-          resampleNearest(readPfm(options.ground_truth_dir + "/" + viewFolderName(ids[i]) + ".pfm"),
-                          map.depth.width, map.depth.height);
+    ImageF truth;
+    if (!options.ground_truth_dir.empty() &&
+        readGroundTruth(options.ground_truth_dir, ids[i], map.depth.width, map.depth.height, &truth)) {
       const AccuracyCounts counts = denseDepthAccuracy(map.depth, truth, nullptr);
       pooled.merge(counts);
       accuracy = ", within 1/2/5 % of ground truth: " + counts.percentages() + " %";
@@ -365,7 +382,8 @@ std::string depthJobUsage() {
          "  --depth_min M --depth_max M   override the views' depth ranges (metres)\n"
          "  --backend auto|cuda|cpu compute backend (default auto: CUDA if a GPU is usable)\n"
          "  --max_cost C            mask pixels whose cost exceeds C (default 0: no mask)\n"
-         "  --ground_truth DIR      report accuracy against DIR/NNNNNNNN.pfm z-depth maps\n"
+         "  --ground_truth DIR      report accuracy against DIR/NNNNNNNN.pfm z-depth maps, or\n"
+         "                          a Middlebury 2014 scene folder (view 0, non-occluded pixels)\n"
          "  --geometric             then a geometric-consistency pass per view (not in the paper):\n"
          "                          from its photometric map, with the reprojection error against\n"
          "                          the listed source views' maps added to every cost\n"

@@ -51,11 +51,12 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
   FrameSelection& frames = options.frames;
   PosedSequenceOptions& sequence = options.sequence;
   bool pose_refinement_asked = false;  // given on the command line (not the default)
+  NeighbourDepthOptions& neighbours = pipeline.mapper.neighbour_depth;
   for (size_t i = 0; i < arguments.size(); ++i) {
     std::string name, value;
     nextOption(arguments, &i,
                {"quiet", "write_depth", "write_previews", "write_clouds", "write_confidence", "skip_to_newest",
-                "confidence", "pose_refinement"},
+                "confidence", "pose_refinement", "start_from_neighbours", "geometric_refinement"},
                &name, &value);
     if (name == "quiet") options.quiet = parseSwitch(name, value);
     else if (name == "write_depth") options.write_depth = parseSwitch(name, value);
@@ -73,6 +74,11 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     else if (name == "voxel_size") pipeline.mapper.map.leaf_size = parseValue<double>(name, value);
     else if (name == "queue_size") options.queue_size = parseValue<size_t>(name, value);
     else if (name == "skip_to_newest") pipeline.skip_to_newest = parseSwitch(name, value);
+    else if (name == "start_from_neighbours") neighbours.start_from_neighbours = parseSwitch(name, value);
+    else if (name == "start_iterations") neighbours.start_iterations = parseValue<int>(name, value);
+    else if (name == "start_max_cost") neighbours.start_max_cost = parseValue<double>(name, value);
+    else if (name == "geometric_refinement") neighbours.geometric_refinement = parseSwitch(name, value);
+    else if (name == "geometric_refinement_iterations") neighbours.geometric_iterations = parseValue<int>(name, value);
     else if (name == "start") frames.start = parseValue<size_t>(name, value);
     else if (name == "count") frames.count = parseValue<size_t>(name, value);
     else if (name == "stride") frames.stride = parseValue<size_t>(name, value);
@@ -204,7 +210,16 @@ std::string mapToolUsage() {
     out << "  --" << kPoseRefinementPrefix << option.name << " (" << option.get(PoseRefinementOptions()) << ")  "
         << option.help << "\n";
   }
-  out << "Outputs:\n"
+  out << "Neighbours' depth maps (mapping/neighbour_depth.h; off by default):\n"
+         "  --start_from_neighbours[=0|1]  a keyframe starts from its sources' depth maps\n"
+         "                       reprojected into it (random planes where nothing lands)\n"
+         "  --start_iterations N  iterations from that start: 0 = the full schedule (default),\n"
+         "                       N = N of local refinement\n"
+         "  --start_max_cost C   only source pixels with a matching cost <= C (default 0.5)\n"
+         "  --geometric_refinement[=0|1]  a refinement adds the geometric-consistency term\n"
+         "                       against its sources' depth maps, from its own depth map\n"
+         "  --geometric_refinement_iterations N  its iterations of local refinement (default 3)\n"
+         "Outputs:\n"
          "  --write_depth[=0|1] (default 1)  --write_clouds[=0|1] (default 1)\n"
          "  --write_previews[=0|1] (default 0)  --quiet (only warnings and the summary line)\n"
          "  --write_confidence[=0|1] (default 0) confidence/NNNNNN.pfm, each keyframe's confidence\n"

@@ -26,7 +26,10 @@ SyntheticWorld makeFoldedPlanesWorld(uint32_t seed) {
 }
 
 SyntheticProblem makeSyntheticProblem(int width, int height, int sources, uint32_t seed) {
-  const SyntheticWorld world = makeFoldedPlanesWorld(seed);
+  return makeSyntheticProblem(makeFoldedPlanesWorld(seed), width, height, sources);
+}
+
+SyntheticProblem makeSyntheticProblem(const SyntheticWorld& world, int width, int height, int sources) {
   const std::vector<PinholeCamera> cameras = makeSidewaysCameras(sources + 1, width, height);
   SyntheticProblem out;
   for (size_t i = 0; i < cameras.size(); ++i) {

@@ -25,5 +25,7 @@ struct SyntheticProblem : OwnedDepthProblem {
 // a floor meeting along creases); depth range from the true depth widened by
 // 10 %.
 SyntheticProblem makeSyntheticProblem(int width, int height, int sources, uint32_t seed = 1);
+// The same cameras looking into `world`.
+SyntheticProblem makeSyntheticProblem(const SyntheticWorld& world, int width, int height, int sources);
 
 }  // namespace amhmvs

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
@@ -100,6 +101,24 @@ TEST_F(DepthCli, CostMaskSetsUnreliablePixelsToNaN) {
 
 // Files are written by a background thread: a file that cannot be written
 // still fails the program with its name.
+TEST_F(DepthCli, MiddleburySceneFolderIsTheGroundTruthOfView0) {
+  const std::string scene = test::dataPath("middlebury2014/Piano");
+  if (scene.empty()) GTEST_SKIP() << "real data not found under " << test::dataDir();
+  const CommandResult r = runDepth(input_ + " " + output_ + " --backend cpu --max_image_size 120 --iterations 2 " +
+                                   "--ground_truth " + scene);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // View 0 is judged (non-occluded pixels at 120x82); view 1 has no ground
+  // truth; the pooled line is view 0's.
+  std::smatch view0, pooled;
+  ASSERT_TRUE(std::regex_search(r.output, view0, std::regex("view 00000000: .* ground truth: ([0-9./ ]+) %")))
+      << r.output;
+  EXPECT_TRUE(std::regex_search(r.output, std::regex("view 00000001: [^\n]* ms\n"))) << r.output;
+  ASSERT_TRUE(std::regex_search(r.output, pooled, std::regex("over 2 maps \\(([0-9]+) pixels\\): within 1/2/5 %: ([0-9./ ]+) %")))
+      << r.output;
+  EXPECT_EQ(pooled[2].str(), view0[1].str());
+  EXPECT_GT(std::stol(pooled[1].str()), 0.8 * 120 * 82);
+}
+
 TEST_F(DepthCli, UnwritableOutputFileIsReportedWithItsName) {
   fs::create_directories(output_ + "/00000000/normal.pfm");  // a folder where the file goes
   const CommandResult r = runDepth(input_ + " " + output_ + " --backend cpu --max_image_size 120 --iterations 1");

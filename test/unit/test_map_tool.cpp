@@ -113,5 +113,27 @@ TEST(MapTool, PoseRefinementOptions) {
   }
 }
 
+TEST(MapTool, ParsesTheLowTextureAndNeighbourDepthSwitches) {
+  const MapToolOptions defaults = parseMapToolArguments({});
+  EXPECT_EQ(defaults.pipeline.estimator.multiscale_levels, 1);
+  EXPECT_FALSE(defaults.pipeline.mapper.neighbour_depth.start_from_neighbours);
+  EXPECT_FALSE(defaults.pipeline.mapper.neighbour_depth.geometric_refinement);
+  const MapToolOptions options = parseMapToolArguments(
+      {"--multiscale", "2", "--multiscale_iterations=1", "--start_from_neighbours", "--start_iterations", "3",
+       "--start_max_cost", "0.4", "--geometric_refinement=1", "--geometric_refinement_iterations", "2"});
+  EXPECT_EQ(options.pipeline.estimator.multiscale_levels, 2);
+  EXPECT_EQ(options.pipeline.estimator.multiscale_iterations, 1);
+  const NeighbourDepthOptions& neighbours = options.pipeline.mapper.neighbour_depth;
+  EXPECT_TRUE(neighbours.start_from_neighbours);
+  EXPECT_EQ(neighbours.start_iterations, 3);
+  EXPECT_EQ(neighbours.start_max_cost, 0.4);
+  EXPECT_TRUE(neighbours.geometric_refinement);
+  EXPECT_EQ(neighbours.geometric_iterations, 2);
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--multiscale", "9"}), "multiscale", "1..6");
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--start_iterations", "-2"}), "start_iterations", "0..100");
+  EXPECT_INPUT_ERROR(parseMapToolArguments({"--geometric_refinement_iterations", "0"}), "geometric_iterations",
+                     "1..100");
+}
+
 }  // namespace
 }  // namespace amhmvs

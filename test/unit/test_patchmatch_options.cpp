@@ -92,6 +92,9 @@ TEST(PatchMatchOptions, ValidateNamesEachBadValue) {
       {[](PatchMatchOptions& o) { o.perturbation = 0; }, "perturbation"},
       {[](PatchMatchOptions& o) { o.max_normal_angle_deg = 90; }, "max_normal_angle"},
       {[](PatchMatchOptions& o) { o.median_filter_size = 9; }, "median_filter"},
+      {[](PatchMatchOptions& o) { o.multiscale_levels = 0; }, "multiscale must be in 1..6"},
+      {[](PatchMatchOptions& o) { o.multiscale_levels = 7; }, "multiscale must be in 1..6"},
+      {[](PatchMatchOptions& o) { o.multiscale_iterations = 0; }, "multiscale_iterations"},
   };
   for (const Case& c : cases) {
     PatchMatchOptions o;
@@ -137,7 +140,7 @@ TEST(PatchMatchOptionTable, NamesAreUniqueAndCoverTheOptions) {
         "propagation", "view_selection", "tau_mc_init", "tau_alpha", "tau_up", "n1", "n2", "beta",
         "top_k", "best_view_boost", "previous_selection_weight", "heuristic_k",
         "bisection_only_iterations", "bisection_steps", "perturbation", "max_normal_angle",
-        "median_filter"}) {
+        "median_filter", "multiscale", "multiscale_iterations"}) {
     EXPECT_EQ(names.count(name), 1u) << name;
   }
 }
@@ -150,7 +153,7 @@ TEST(PatchMatchOptionTable, GetShowsTheDefaults) {
       {"n1", "2"},           {"n2", "3"},           {"beta", "0.3"},
       {"top_k", "4"},        {"window_radius", "5"}, {"window_step", "2"},
       {"median_filter", "4"}, {"bisection_only_iterations", "3"},
-      {"propagation", "asymmetric"}, {"view_selection", "joint"}};
+      {"propagation", "asymmetric"}, {"view_selection", "joint"}, {"multiscale", "1"}};
   for (const auto& [name, text] : expected) EXPECT_EQ(option(name).get(o), text) << name;
 }
 

@@ -67,6 +67,9 @@ ImageU8 toGray(const ImageU8& image);
 // Area-averaging resize to exactly (width, height); used to scale input images
 // down. Pixel centres follow the "about pixel centres" convention
 // (x' + 0.5 = (x + 0.5) * s).
-ImageU8 resizeArea(const ImageU8& image, int width, int height);
+ImageU8 resizeArea(const ImageViewU8& image, int width, int height);
+inline ImageU8 resizeArea(const ImageU8& image, int width, int height) {
+  return resizeArea(ImageViewU8(image), width, height);
+}
 
 }  // namespace amhmvs

@@ -66,6 +66,7 @@
 #include "amhmvs_mapping/mapping/fusion.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "amhmvs_mapping/mapping/pose_refinement.h"
+#include "amhmvs_mapping/mapping/neighbour_depth.h"
 #include "amhmvs_mapping/mapping/source_selection.h"
 #include "amhmvs_mapping/mapping/voxel_map.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
@@ -112,6 +113,8 @@ struct OnlineMapperOptions {
   // (pose_refinement.h); for the stereo only: the store, depth maps, fusion
   // and map keep the tracker's poses.
   PoseRefinementOptions pose_refinement;
+  // Starts and geometric refinements from the neighbours' depth maps (off).
+  NeighbourDepthOptions neighbour_depth;
   // The voxel-map update of a fused keyframe runs on a worker thread while
   // the caller goes on (with a GPU estimator: while the next keyframe is
   // estimated, when the CPU would otherwise wait); every later use of the

@@ -55,6 +55,12 @@ struct DepthProblem {
   // (1 channel) and unit normals (3 channels, camera frame), e.g. this view's
   // photometric result; random planes where they are invalid.
   ImageViewF prior_depth, prior_normal;
+  // With a prior: 0 runs the estimator's schedule from it; N > 0 runs N
+  // iterations of local refinement instead (numbered from the estimator's
+  // bisection_only_iterations, as the geometric pass), for a start that is
+  // near the answer already. With several scales (multiscale), the prior
+  // starts the coarsest one.
+  int prior_iterations = 0;
 
   // Empty when the problem can be solved; otherwise what is wrong (which view,
   // which value).

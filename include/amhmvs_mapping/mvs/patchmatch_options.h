@@ -67,6 +67,14 @@ struct PatchMatchOptions {
   // iterations' local refinement and view-selection thresholds.
   int first_iteration = 0;
 
+  // --- Coarse-to-fine (not in the paper; coarse_to_fine.h) ---
+  // A low-texture aid: estimate at multiscale_levels scales, each half the
+  // size of the next, each finer one starting from the coarser one's planes
+  // for multiscale_iterations iterations of local refinement. 1: single scale
+  // (the paper).
+  int multiscale_levels = 1;
+  int multiscale_iterations = 2;
+
   // --- Post-processing ---
   int median_filter_size = 4;  // paper: 4x4 median on depth; 0 or 1 disables
 
