@@ -115,14 +115,15 @@ TEST(MapTool, PoseRefinementOptions) {
 
 TEST(MapTool, ParsesTheLowTextureAndNeighbourDepthSwitches) {
   const MapToolOptions defaults = parseMapToolArguments({});
-  EXPECT_EQ(defaults.pipeline.estimator.multiscale_levels, 1);
+  EXPECT_EQ(defaults.pipeline.estimator.multiscale_levels, 2);  // onlineEstimatorOptions()
+  EXPECT_EQ(defaults.pipeline.estimator.multiscale_iterations, 1);
   EXPECT_FALSE(defaults.pipeline.mapper.neighbour_depth.start_from_neighbours);
   EXPECT_FALSE(defaults.pipeline.mapper.neighbour_depth.geometric_refinement);
   const MapToolOptions options = parseMapToolArguments(
-      {"--multiscale", "2", "--multiscale_iterations=1", "--start_from_neighbours", "--start_iterations", "3",
+      {"--multiscale", "3", "--multiscale_iterations=2", "--start_from_neighbours", "--start_iterations", "3",
        "--start_max_cost", "0.4", "--geometric_refinement=1", "--geometric_refinement_iterations", "2"});
-  EXPECT_EQ(options.pipeline.estimator.multiscale_levels, 2);
-  EXPECT_EQ(options.pipeline.estimator.multiscale_iterations, 1);
+  EXPECT_EQ(options.pipeline.estimator.multiscale_levels, 3);
+  EXPECT_EQ(options.pipeline.estimator.multiscale_iterations, 2);
   const NeighbourDepthOptions& neighbours = options.pipeline.mapper.neighbour_depth;
   EXPECT_TRUE(neighbours.start_from_neighbours);
   EXPECT_EQ(neighbours.start_iterations, 3);

@@ -1,6 +1,6 @@
 // config/mapping.yaml documents every option of the option tables, with the
-// table's default value: the estimator's under `estimator:`, the pose
-// refinement's under `pose_refinement:`.
+// nodelet's default value: the online estimator's (onlineEstimatorOptions())
+// under `estimator:`, the pose refinement's under `pose_refinement:`.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -8,6 +8,7 @@
 #include <sstream>
 #include <string>
 
+#include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mapping/pose_refinement.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
 
@@ -32,9 +33,9 @@ std::map<std::string, std::string> documentedOptions(const std::string& section)
 
 // Every option of `table` in `section` with the default of `Options`.
 template <typename Options>
-void expectDocumented(const std::string& section, const std::vector<amhmvs::OptionField<Options>>& table) {
+void expectDocumented(const std::string& section, const std::vector<amhmvs::OptionField<Options>>& table,
+                      const Options& defaults = Options()) {
   std::map<std::string, std::string> documented = documentedOptions(section);
-  const Options defaults;
   for (const amhmvs::OptionField<Options>& option : table) {
     SCOPED_TRACE(option.name);
     ASSERT_TRUE(documented.count(option.name)) << section << "/" << option.name << " missing in config/mapping.yaml";
@@ -46,7 +47,7 @@ void expectDocumented(const std::string& section, const std::vector<amhmvs::Opti
 }
 
 TEST(MappingConfigDoc, EveryEstimatorOptionDocumentedWithItsDefault) {
-  expectDocumented("estimator", amhmvs::patchMatchOptionTable());
+  expectDocumented("estimator", amhmvs::patchMatchOptionTable(), amhmvs::onlineEstimatorOptions());
 }
 
 TEST(MappingConfigDoc, EveryPoseRefinementOptionDocumentedWithItsDefault) {
