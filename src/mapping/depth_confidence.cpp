@@ -58,6 +58,9 @@ ImageF calibratedConfidence(const AgreementCounts& counts, const ImageViewF& dep
     throw InputError("confidence: agreement counts, depth and cost maps differ in size");
   }
   ImageF confidence(width, height, 1, 0.0f);
+  // Per pixel, on all cores (640x480 single-threaded: milliseconds of the
+  // online pipeline's keyframe budget).
+#pragma omp parallel for schedule(static)
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
       if (!hasDepth(depth.at(x, y))) continue;
@@ -71,7 +74,9 @@ ImageF calibratedConfidence(const AgreementCounts& counts, const ImageViewF& dep
 ImageF maskDepth(const ImageViewF& depth, const ImageViewF& confidence, float min_probability) {
   if (!confidence.sameSize(depth.width, depth.height)) throw InputError("confidence: depth and confidence differ in size");
   ImageF masked(depth.width, depth.height, 1, std::numeric_limits<float>::quiet_NaN());
-  for (size_t i = 0; i < depth.pixelCount(); ++i) {
+  const long pixels = static_cast<long>(depth.pixelCount());
+#pragma omp parallel for schedule(static)
+  for (long i = 0; i < pixels; ++i) {
     if (confidence.data[i] >= min_probability) masked.data[i] = depth.data[i];
   }
   return masked;

@@ -57,18 +57,13 @@
 
 namespace amhmvs {
 
-// The estimator's options for online mapping (the nodelet, amhmvs_map): the
-// paper's (PatchMatchOptions) with the coarse-to-fine low-texture aid, 2
-// scales and 1 iteration at the finer one. Redkitchen, 60 frames at 320 px,
-// CPU, against the paper's single scale: a step 918 instead of 1792 ms;
-// within 10 % of the Kinect depth 61.4 instead of 56.3 % of the pixels
-// (published: 88.9 % at 33.3 % completeness instead of 90.6 % at 23.5 %);
-// map 6909 instead of 4316 points, 91.6 / 91.9 % within 5 cm.
-PatchMatchOptions onlineEstimatorOptions();
-
 struct PipelineOptions {
   OnlineMapperOptions mapper;
-  PatchMatchOptions estimator = onlineEstimatorOptions();
+  // The paper's defaults. On the CPU, real video gains from the coarse-to-fine
+  // aid (multiscale_levels 2, multiscale_iterations 1: README "Real tracked
+  // video"); on the GPU its host-side plane upsampling costs ~45 ms per
+  // 640x480 keyframe (H100 host), so it is not the default.
+  PatchMatchOptions estimator;
   Backend backend = Backend::kAuto;      // kAuto: CUDA when a GPU is usable, else the CPU (logged)
   EstimatorResources resources;          // GPU: device-memory budget of resident keyframe images
   FuserResources fusion_resources;       // GPU: device-memory budget of resident depth maps (fusion)
