@@ -4,6 +4,8 @@
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/mvs/problem_builder.h"
 
+#include <limits>
+
 namespace amhmvs {
 
 PickedKeyframes pickKeyframes(const std::vector<PosedFrame>& frames, const FrameSelection& selection) {
@@ -13,9 +15,15 @@ PickedKeyframes pickKeyframes(const std::vector<PosedFrame>& frames, const Frame
   for (size_t i = selection.start; i < frames.size(); i += selection.stride) {
     if (selection.count > 0 && looked_at++ == selection.count) break;
     const PosedFrame& frame = frames[i];
+    // An unreadable image is not judged here: the run reaches it in order
+    // and stops there with its name, after the earlier results are written.
     const auto sharpness = [&frame] {
-      const ImageU8 image = readImage(frame.image_path);
-      return imageSharpness(image);
+      try {
+        const ImageU8 image = readImage(frame.image_path);
+        return imageSharpness(image);
+      } catch (const InputError&) {
+        return std::numeric_limits<double>::quiet_NaN();
+      }
     };
     if (picker.offer(cameraToWorld(frame.camera), sharpness) == PickDecision::kKeyframe) picked.indices.push_back(i);
   }
