@@ -1,10 +1,13 @@
 #!/usr/bin/env python3
 """Publishes a PLY cloud (as written by the demo) once, latched, as a
-PointCloud2 with x y z rgb in ~frame_id (default world) on `cloud`, with a
-static tf that makes ~frame_id known; then spins until shut down (for rviz
-pictures of a saved map).
+PointCloud2 with x y z rgb in ~frame_id (default world) on `cloud`, and a
+static tf frame ~frame_id + "_view" at the cloud's median point whose z axis
+is ~up (default 0,0,1; 0,-1,0 for a world that is a camera frame, as
+7-Scenes' and KinectFusion's): a fixed frame for rviz in which any map is in
+view and upright. Then spins until shut down (for rviz pictures of a saved
+map).
 
-usage: publish_ply.py MAP.ply [_frame_id:=world] [cloud:=/topic]
+usage: publish_ply.py MAP.ply [_frame_id:=world] [_up:=X,Y,Z] [cloud:=/topic]
 """
 import os
 import sys
@@ -33,6 +36,20 @@ def cloud_msg(xyz, rgb, frame_id):
     return msg
 
 
+def view_frame(parent, origin, up):
+    """The static transform parent -> parent_view: at origin, its z axis along
+    up (the shortest rotation from the parent's z; a half turn about x for -z)."""
+    up = up / np.linalg.norm(up)
+    half_way = np.append(np.cross([0.0, 0.0, 1.0], up), 1.0 + up[2])  # x y z w, unnormalised
+    q = half_way / np.linalg.norm(half_way) if half_way[3] > 1e-9 else np.array([1.0, 0, 0, 0])
+    frame = TransformStamped(child_frame_id=parent + "_view")
+    frame.header.frame_id, frame.header.stamp = parent, rospy.Time.now()
+    t, r = frame.transform.translation, frame.transform.rotation
+    t.x, t.y, t.z = (float(v) for v in origin)
+    r.x, r.y, r.z, r.w = (float(v) for v in q)
+    return frame
+
+
 def main():
     argv = rospy.myargv()
     if len(argv) != 2:
@@ -42,11 +59,11 @@ def main():
     publisher = rospy.Publisher("cloud", PointCloud2, queue_size=1, latch=True)
     msg_frame = rospy.get_param("~frame_id", "world")
     publisher.publish(cloud_msg(xyz, rgb, msg_frame))
-    # rviz warns about a fixed frame that tf does not know: announce it.
-    frame = TransformStamped(child_frame_id=msg_frame + "_ply")
-    frame.header.frame_id, frame.header.stamp, frame.transform.rotation.w = msg_frame, rospy.Time.now(), 1.0
+    up = np.array([float(v) for v in str(rospy.get_param("~up", "0,0,1")).split(",")])
+    if up.shape != (3,) or not np.all(np.isfinite(up)) or np.linalg.norm(up) == 0:
+        sys.exit("publish_ply: ~up must be three numbers, not all zero (got %s)" % rospy.get_param("~up"))
     broadcaster = tf2_ros.StaticTransformBroadcaster()
-    broadcaster.sendTransform(frame)
+    broadcaster.sendTransform(view_frame(msg_frame, np.median(xyz, axis=0) if len(xyz) else np.zeros(3), up))
     rospy.loginfo("published %d points of %s on %s", len(xyz), argv[1], publisher.resolved_name)
     rospy.spin()
 

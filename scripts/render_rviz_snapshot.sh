@@ -4,15 +4,27 @@
 # latched PointCloud2 (scripts/publish_ply.py) and starts rviz with
 # rviz/demo_map.rviz (or RVIZ_CONFIG); once rviz subscribes, takes screenshots
 # until two in a row agree and show more than the background, then stops
-# everything it started.
+# everything it started. With --up X,Y,Z the view follows the map instead of
+# the config's fixed coordinates: it looks at the map's median point, from a
+# distance that fits it, with X,Y,Z (world coordinates) up on the screen
+# (0,0,1 for a z-up world; 0,-1,0 for 7-Scenes, whose world is a camera frame);
+# AMHMVS_VIEW_YAW / AMHMVS_VIEW_PITCH (radians) turn that view.
 #
-# usage: scripts/render_rviz_snapshot.sh MAP.ply OUT.png [RVIZ_CONFIG]
+# usage: scripts/render_rviz_snapshot.sh MAP.ply OUT.png [RVIZ_CONFIG] [--up X,Y,Z]
 # Needs the Debian packages xvfb, rviz, imagemagick, libgl1-mesa-dri.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-[ $# -ge 2 ] || { awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0" >&2; exit 2; }
-map=$1 png=$2 config=${3:-$here/rviz/demo_map.rviz}
+usage() { awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0" >&2; exit 2; }
+arguments=() up=
+while [ $# -gt 0 ]; do
+  case $1 in
+    --up) [ $# -ge 2 ] || usage; up=$2; shift 2 ;;
+    *) arguments+=("$1"); shift ;;
+  esac
+done
+[ ${#arguments[@]} -ge 2 ] && [ ${#arguments[@]} -le 3 ] || usage
+map=${arguments[0]} png=${arguments[1]} config=${arguments[2]:-$here/rviz/demo_map.rviz}
 [ -f "$map" ] || { echo "render_rviz_snapshot: no map at $map" >&2; exit 1; }
 timeout_s=${AMHMVS_SNAPSHOT_TIMEOUT:-120}
 
@@ -53,7 +65,11 @@ roscore -p "$port" >"$work/roscore.log" 2>&1 &
 pids+=($!)
 wait_for 30 "the ROS master" rosparam list
 
-python3 "$here/scripts/publish_ply.py" "$map" cloud:=/amhmvs_demo/map >"$work/publish.log" 2>&1 &
+if [ -n "$up" ]; then
+  python3 "$here/scripts/map_view_rviz_config.py" "$config" "$work/follow.rviz" "$map"
+  config=$work/follow.rviz
+fi
+python3 "$here/scripts/publish_ply.py" "$map" cloud:=/amhmvs_demo/map _up:="${up:-0,0,1}" >"$work/publish.log" 2>&1 &
 pids+=($!)
 rviz -d "$config" >"$work/rviz.log" 2>&1 &
 pids+=($!)

@@ -214,9 +214,12 @@ ros_runs+=("script:$rc")
 echo "== demo (scripts/demo.sh, tiny sequence) =="
 demo_out=$build/test_results/demo
 picture=()
-command -v Xvfb >/dev/null && command -v rviz >/dev/null && picture=(--picture)
+command -v Xvfb >/dev/null && command -v rviz >/dev/null && picture=(--picture --follow_picture)
 demo_and_checks() {
   "$here/scripts/demo.sh" "$demo_out" --views 4 --size 160x120 --skip-build --timeout 300 &&
+    if [ ${#picture[@]} -gt 0 ]; then  # the saved map again, with the view that follows it
+      "$here/scripts/render_rviz_snapshot.sh" "$demo_out/map.ply" "$demo_out/map_follow_rviz.png" --up 0,0,1
+    fi &&
     python3 "$here/test/demo/check_demo_summary.py" "$demo_out" --keyframes 4 --min_within_1 60 --min_within_5 75 \
       --min_map_points 8000 --min_on_surface 80 "${picture[@]}"
 }

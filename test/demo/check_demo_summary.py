@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
 """Checks a demo run's outputs (scripts/demo.sh OUT_DIR ...) against floors:
 summary.json numbers, one colour-mapped depth image per keyframe, a PLY with
-the reported point count and, with --picture, a non-blank rviz PNG.
+the reported point count and, with --picture, a non-blank rviz PNG (and with
+--follow_picture the same of map_follow_rviz.png, the view that follows the
+map: render_rviz_snapshot.sh --up).
 Prints each check; exit 1 if any fails.
 
 usage: check_demo_summary.py OUT_DIR --keyframes N --min_within_1 P --min_within_5 P
-                             --min_map_points N --min_on_surface P [--picture]
+                             --min_map_points N --min_on_surface P [--picture] [--follow_picture]
 """
 import argparse
 import json
@@ -28,6 +30,7 @@ def main():
     parser.add_argument("--min_map_points", type=int, required=True)
     parser.add_argument("--min_on_surface", type=float, required=True, help="percent of map points within 2 cm")
     parser.add_argument("--picture", action="store_true", help="also check map_rviz.png")
+    parser.add_argument("--follow_picture", action="store_true", help="also check map_follow_rviz.png")
     args = parser.parse_args()
 
     with open(os.path.join(args.out_dir, "summary.json")) as f:
@@ -48,10 +51,12 @@ def main():
         ("a depth image per keyframe", len(depth_images), args.keyframes),
         ("ms per keyframe measured", s["wall_ms_per_keyframe"] is not None and s["wall_ms_per_keyframe"] > 0, True),
     ]
-    if args.picture:
-        picture = cv2.imread(os.path.join(args.out_dir, "map_rviz.png"))
-        colours = 0 if picture is None else len(np.unique(picture.reshape(-1, 3), axis=0))
-        checks.append(("rviz picture with > 1000 colours", colours > 1000, f"{colours} colours"))
+    # An empty grid (the view away from the map) has about 800 colours.
+    for wanted, name in ((args.picture, "map_rviz.png"), (args.follow_picture, "map_follow_rviz.png")):
+        if wanted:
+            picture = cv2.imread(os.path.join(args.out_dir, name))
+            colours = 0 if picture is None else len(np.unique(picture.reshape(-1, 3), axis=0))
+            checks.append((f"{name} with > 1000 colours", colours > 1000, f"{colours} colours"))
     failed = 0
     for name, value, expected in checks:
         ok = value is True if isinstance(expected, str) else value == expected
