@@ -121,7 +121,9 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
   try {
     estimateAndFuse(id, &result);
   } catch (...) {
+    // Dropped: nothing may name it again (a refinement would look it up).
     store_.remove(id);
+    forgetKeyframe(id);
     throw;
   }
   result.times.total_ms = millisecondsSince(start);
@@ -218,6 +220,7 @@ void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
     start = Clock::now();
     result->pose_refinement = pose_refiner_->refine(&problem);
     result->times.pose_refinement_ms = millisecondsSince(start);
+    recordRefinedPoses(id, problem, result->pose_refinement);
   }
   start = Clock::now();
   result->depth = estimate_(problem);
@@ -248,19 +251,30 @@ void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
   result->waiting_for_fusion = waiting_.size();
 }
 
+OnlineMapper::Forgotten OnlineMapper::forgetKeyframe(int64_t id) {
+  Forgotten forgotten;
+  estimates_.erase(id);
+  if (pose_refiner_) pose_refiner_->forget(id);
+  refined_poses_.forget(id);
+  const auto without_depth = std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id);
+  if (without_depth != waiting_for_sources_.end()) {
+    waiting_for_sources_.erase(without_depth);
+    forgotten.was_waiting_for_sources = true;
+  }
+  const auto waiting = std::find(waiting_.begin(), waiting_.end(), id);
+  if (waiting != waiting_.end()) {
+    waiting_.erase(waiting);
+    forgotten.was_waiting_for_fusion = true;
+  }
+  return forgotten;
+}
+
 void OnlineMapper::noteEvicted(const std::vector<int64_t>& evicted, KeyframeResult* result) {
   for (int64_t id : evicted) {
     result->evicted.push_back(id);
-    estimates_.erase(id);
-    if (pose_refiner_) pose_refiner_->forget(id);
-    const auto without_depth = std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id);
-    if (without_depth != waiting_for_sources_.end()) {
-      waiting_for_sources_.erase(without_depth);
-      ++evicted_without_depth_;
-    }
-    const auto waiting = std::find(waiting_.begin(), waiting_.end(), id);
-    if (waiting == waiting_.end()) continue;
-    waiting_.erase(waiting);
+    const Forgotten forgotten = forgetKeyframe(id);
+    if (forgotten.was_waiting_for_sources) ++evicted_without_depth_;
+    if (!forgotten.was_waiting_for_fusion) continue;
     result->evicted_before_fusion.push_back(id);
     ++evicted_before_fusion_;
   }
@@ -376,29 +390,41 @@ std::vector<int64_t> OnlineMapper::consistencyViews(int64_t id) const {
   return selectSources(store_, id, candidates, options).source_ids;
 }
 
-namespace {
-
 // Local fusion ids: the consistency views 0..n-1 (no sources of their own:
 // they only support).
-std::vector<FusionView> consistencyFusionViews(const KeyframeStore& store, const std::vector<int64_t>& view_ids) {
+std::vector<FusionView> OnlineMapper::consistencyFusionViews(int64_t id, const std::vector<int64_t>& view_ids) const {
+  const bool refined = options_.pose_refinement.enabled && options_.pose_refinement.in_fusion;
+  const PinholeCamera& camera = store_.keyframe(id).camera;
   std::vector<FusionView> views;
-  for (int64_t view : view_ids) views.push_back(fusionView(static_cast<int>(views.size()), store.entry(view)));
+  for (int64_t view : view_ids) {
+    views.push_back(fusionView(static_cast<int>(views.size()), store_.entry(view)));
+    if (refined) refined_poses_.place(id, camera, view, &views.back().camera);
+  }
   return views;
 }
 
-}  // namespace
+void OnlineMapper::recordRefinedPoses(int64_t id, const DepthProblem& problem,
+                                      const PoseRefinementResult& refinement) {
+  for (size_t i = 0; i < refinement.sources.size() && i < problem.source_keys.size(); ++i) {
+    const SourcePoseOutcome outcome = refinement.sources[i].outcome;
+    if (outcome == SourcePoseOutcome::kRefined || outcome == SourcePoseOutcome::kConfirmed)
+      refined_poses_.record(id, problem.reference_camera, problem.source_keys[i], problem.source_cameras[i]);
+    else
+      refined_poses_.drop(id, problem.source_keys[i]);
+  }
+}
 
 PublishedDepth OnlineMapper::publish(int64_t id, const std::vector<int64_t>& view_ids) const {
   const StoredKeyframe& stored = store_.entry(id);
   if (!hasDepthAndNormals(stored)) return {};
-  const std::vector<FusionView> views = consistencyFusionViews(store_, view_ids);
+  const std::vector<FusionView> views = consistencyFusionViews(id, view_ids);
   return publishDepth(fusionView(static_cast<int>(views.size()), stored), views, options_.confidence,
                       defaultConfidenceCalibration(), agree_);
 }
 
 KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& view_ids) const {
   // The keyframe is view n after the consistency views.
-  std::vector<FusionView> views = consistencyFusionViews(store_, view_ids);
+  std::vector<FusionView> views = consistencyFusionViews(id, view_ids);
   const StoredKeyframe& stored = store_.entry(id);
   if (views.empty() || !hasDepthAndNormals(stored)) return {};
   FusionView reference = fusionView(static_cast<int>(views.size()), stored);
@@ -429,6 +455,7 @@ void OnlineMapper::reset() {
   evicted_without_depth_ = 0;
   estimates_.clear();
   if (pose_refiner_) pose_refiner_->forgetAll();
+  refined_poses_.clear();
   try {
     finishMapWork();
   } catch (const std::exception&) {

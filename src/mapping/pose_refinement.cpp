@@ -73,6 +73,9 @@ const std::vector<PoseRefinementOptionInfo>& poseRefinementOptionTable() {
                   "a larger shift of a source's centre is rejected (the tracker's pose stays), m"),
       numberField("max_correction_deg", &O::max_correction_deg,
                   "a larger rotation of a source is rejected (the tracker's pose stays), deg"),
+      switchField("in_fusion", &O::in_fusion,
+                  "the fusion's consistency check and the confidence take the neighbours at the refined relative "
+                  "poses (the points stay at the tracker's pose)"),
   };
   return table;
 }

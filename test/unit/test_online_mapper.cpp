@@ -554,6 +554,32 @@ TEST(OnlineMapper, FailedEstimateLeavesNoPendingKeyframe) {
   EXPECT_THROW(mapper.process(keyframeAt(2, 0.6)), InputError);  // duplicate id
 }
 
+// A keyframe whose fusion throws is dropped from everything: no later step
+// (a refinement ranks every estimated keyframe) looks it up again.
+TEST(OnlineMapper, KeyframeDroppedByAFailedFusionIsNeverLookedUpAgain) {
+  int64_t failing = -1;
+  const FuseFunction fuse = [&failing](const std::vector<FusionView>& views, const FusionOptions& options) {
+    if (failing >= 0) throw InputError("injected: fusion of the newest keyframe fails");
+    return fuseDepthMaps(views, options);
+  };
+  OnlineMapper mapper(wallOptions(), wallDepth, fuse);
+  KeyframeResult result;
+  mapper.process(keyframeAt(0, 0.0));
+  mapper.process(keyframeAt(1, 0.5));
+  ASSERT_TRUE(mapper.estimateLate(&result));  // keyframe 0 with {1}: 2 is the first to fuse
+  failing = 2;
+  EXPECT_THROW(mapper.process(keyframeAt(2, 1.0)), InputError);
+  failing = -1;
+  EXPECT_FALSE(mapper.store().contains(2));
+  for (int64_t id = 3; id < 6; ++id) {
+    ASSERT_NO_THROW(mapper.process(keyframeAt(id, 0.5 * id)));
+    // Refinements run out (each keyframe at most once) and never name keyframe 2.
+    for (int i = 0; i < 10 && mapper.refine(&result); ++i) ASSERT_NE(result.id, 2);
+  }
+  EXPECT_FALSE(mapper.refine(&result));
+  EXPECT_FALSE(mapper.map().contains(2));
+}
+
 TEST(OnlineMapper, ResetAndVoxelSizeChange) {
   OnlineMapper mapper(wallOptions(), wallDepth);
   for (int i = 0; i < 4; ++i) mapper.process(keyframeAt(i, 0.5 * i));

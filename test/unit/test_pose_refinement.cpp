@@ -170,7 +170,10 @@ TEST(PoseRefinementOptions, DefaultsAreValidAndBadValuesNamed) {
 TEST(PoseRefinementOptions, TableSetsAndGetsEveryOption) {
   PoseRefinementOptions options;
   for (const PoseRefinementOptionInfo& option : poseRefinementOptionTable()) {
-    const std::string value = option.name == "enabled" ? "false" : "7";
+    // A switch to the opposite of its default, a number to 7.
+    const std::string default_value = option.get(PoseRefinementOptions());
+    const bool is_switch = default_value == "true" || default_value == "false";
+    const std::string value = is_switch ? (default_value == "true" ? "false" : "true") : "7";
     option.set(options, value);
     EXPECT_EQ(option.get(options), value) << option.name;
   }

@@ -65,8 +65,9 @@
 #include "amhmvs_mapping/mapping/depth_range.h"
 #include "amhmvs_mapping/mapping/fusion.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
-#include "amhmvs_mapping/mapping/pose_refinement.h"
 #include "amhmvs_mapping/mapping/neighbour_depth.h"
+#include "amhmvs_mapping/mapping/pose_refinement.h"
+#include "amhmvs_mapping/mapping/refined_relative_poses.h"
 #include "amhmvs_mapping/mapping/source_selection.h"
 #include "amhmvs_mapping/mapping/voxel_map.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
@@ -293,6 +294,11 @@ class OnlineMapper {
   };
   // The consistency views of a keyframe with a depth map (see step 5).
   std::vector<int64_t> consistencyViews(int64_t id) const;
+  // The consistency views of keyframe `id` as fusion reads them: local ids
+  // 0..n-1, at the refined relative poses where the pose refinement found them.
+  std::vector<FusionView> consistencyFusionViews(int64_t id, const std::vector<int64_t>& view_ids) const;
+  // Keeps the relative poses a problem's refinement found (or drops stale ones).
+  void recordRefinedPoses(int64_t id, const DepthProblem& problem, const PoseRefinementResult& refinement);
   // Fuses keyframe `id`'s depth map against the consistency views.
   KeyframePoints fuse(int64_t id, const std::vector<int64_t>& view_ids) const;
   // Its confidence and published depth against the same views.
@@ -301,6 +307,12 @@ class OnlineMapper {
   void fuseWaiting(KeyframeResult* result);
   // Marks stored keyframe `id` done without depth (a source only).
   void markSourceOnly(int64_t id, KeyframeResult* result);
+  // Drops a keyframe that left the store from every list and cache (not the map).
+  struct Forgotten {
+    bool was_waiting_for_sources = false;
+    bool was_waiting_for_fusion = false;
+  };
+  Forgotten forgetKeyframe(int64_t id);
   // Records evictions in the result; drops evicted waiting keyframes.
   void noteEvicted(const std::vector<int64_t>& evicted, KeyframeResult* result);
 
@@ -311,6 +323,7 @@ class OnlineMapper {
 
   OnlineMapperOptions options_;
   std::unique_ptr<PoseRefiner> pose_refiner_;  // when options_.pose_refinement.enabled
+  RefinedRelativePoses refined_poses_;         // what it found, for fusion (pose_refinement.in_fusion)
   EstimateFunction estimate_;
   FuseFunction fuse_;
   AgreementFunction agree_;

@@ -65,6 +65,11 @@ struct PoseRefinementOptions {
   // A larger correction is taken for a failure: that source keeps the tracker's pose.
   double max_correction_m = 0.1;
   double max_correction_deg = 3.0;
+  // --- After stereo ---
+  // The fusion's consistency check and the confidence's agreement count take
+  // a keyframe's neighbours at the refined relative poses (refined_relative_poses.h);
+  // the points stay at the tracker's pose.
+  bool in_fusion = true;
 
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;
