@@ -209,13 +209,17 @@ FusionResult MappingPipeline::fuse(const std::vector<FusionView>& views, const F
     try {
       return fuser_->fuse(views, options);
     } catch (const BackendError& e) {
-      report(LogLevel::kError, "fusion", std::string("fusion on the GPU failed (") + e.what() +
-                                             "), this keyframe is fused on the CPU");
-      std::lock_guard<std::mutex> lock(stats_mutex_);
-      ++stats_.fusion_cpu_fallbacks;
+      noteFusionCpuFallback(std::string("fusion on the GPU failed (") + e.what() +
+                            "), this keyframe is fused on the CPU");
     }
   }
   return fuseDepthMaps(views, options);
+}
+
+void MappingPipeline::noteFusionCpuFallback(const std::string& message) {
+  report(LogLevel::kError, "fusion", message);
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  ++stats_.fusion_cpu_fallbacks;
 }
 
 AgreementCounts MappingPipeline::agree(const FusionView& reference, const std::vector<FusionView>& views,
@@ -224,10 +228,8 @@ AgreementCounts MappingPipeline::agree(const FusionView& reference, const std::v
     try {
       return fuser_->countAgreement(reference, views, checks);
     } catch (const BackendError& e) {
-      report(LogLevel::kError, "fusion", std::string("confidence on the GPU failed (") + e.what() +
-                                             "), this keyframe's is counted on the CPU");
-      std::lock_guard<std::mutex> lock(stats_mutex_);
-      ++stats_.fusion_cpu_fallbacks;
+      noteFusionCpuFallback(std::string("confidence on the GPU failed (") + e.what() +
+                            "), this keyframe's is counted on the CPU");
     }
   }
   return countAgreement(reference, views, checks);

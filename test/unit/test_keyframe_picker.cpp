@@ -8,17 +8,11 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/core/synthetic_scene.h"
 #include "amhmvs_mapping/mapping/keyframe_picker.h"
+#include "mapping_test_helpers.h"
 #include "test_helpers.h"
 
 namespace amhmvs {
 namespace {
-
-Eigen::Isometry3d pose(const Eigen::Vector3d& position, double yaw_deg) {
-  Eigen::Isometry3d p = Eigen::Isometry3d::Identity();
-  p.translation() = position;
-  p.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  return p;
-}
 
 KeyframePickerOptions motionOnly() {
   KeyframePickerOptions options;
@@ -53,32 +47,32 @@ ImageU8 roomView() {
 
 TEST(KeyframePicker, MotionDecidesAndTheFirstFrameIsAKeyframe) {
   KeyframePicker picker(motionOnly());
-  EXPECT_EQ(picker.offer(pose({0, 0, 0}, 0), {}), PickDecision::kKeyframe);
-  EXPECT_EQ(picker.offer(pose({0.04, 0, 0}, 4), {}), PickDecision::kTooClose);
-  EXPECT_EQ(picker.offer(pose({0.05, 0, 0}, 0), {}), PickDecision::kKeyframe);  // >= min_translation
-  EXPECT_EQ(picker.offer(pose({0.05, 0, 0}, 6), {}), PickDecision::kPureRotation);  // turned, did not move
+  EXPECT_EQ(picker.offer(test::poseAt({0, 0, 0}, 0), {}), PickDecision::kKeyframe);
+  EXPECT_EQ(picker.offer(test::poseAt({0.04, 0, 0}, 4), {}), PickDecision::kTooClose);
+  EXPECT_EQ(picker.offer(test::poseAt({0.05, 0, 0}, 0), {}), PickDecision::kKeyframe);  // >= min_translation
+  EXPECT_EQ(picker.offer(test::poseAt({0.05, 0, 0}, 6), {}), PickDecision::kPureRotation);  // turned, did not move
   // Turned and moved more than half of min_translation: a keyframe.
-  EXPECT_EQ(picker.offer(pose({0.08, 0, 0}, 6), {}), PickDecision::kKeyframe);
+  EXPECT_EQ(picker.offer(test::poseAt({0.08, 0, 0}, 6), {}), PickDecision::kKeyframe);
   EXPECT_EQ(picker.stats().frames_offered, 5u);
   EXPECT_EQ(picker.stats().keyframes, 3u);
   EXPECT_EQ(picker.stats().too_close, 1u);
   EXPECT_EQ(picker.stats().refused_pure_rotation, 1u);
   picker.reset();
-  EXPECT_EQ(picker.offer(pose({0.08, 0, 0}, 6), {}), PickDecision::kKeyframe);  // first after reset
+  EXPECT_EQ(picker.offer(test::poseAt({0.08, 0, 0}, 6), {}), PickDecision::kKeyframe);  // first after reset
 }
 
 TEST(KeyframePicker, PureRotationTestCanBeSwitchedOff) {
   KeyframePickerOptions options = motionOnly();
   options.min_turning_translation_fraction = 0;
   KeyframePicker picker(options);
-  picker.offer(pose({0, 0, 0}, 0), {});
-  EXPECT_EQ(picker.offer(pose({0, 0, 0}, 6), {}), PickDecision::kKeyframe);
+  picker.offer(test::poseAt({0, 0, 0}, 0), {});
+  EXPECT_EQ(picker.offer(test::poseAt({0, 0, 0}, 6), {}), PickDecision::kKeyframe);
   // Rotation alone as the criterion (no translation threshold): no pure-rotation test.
   options = motionOnly();
   options.min_translation_m = 0;
   KeyframePicker by_rotation(options);
-  by_rotation.offer(pose({0, 0, 0}, 0), {});
-  EXPECT_EQ(by_rotation.offer(pose({0, 0, 0}, 6), {}), PickDecision::kKeyframe);
+  by_rotation.offer(test::poseAt({0, 0, 0}, 0), {});
+  EXPECT_EQ(by_rotation.offer(test::poseAt({0, 0, 0}, 6), {}), PickDecision::kKeyframe);
 }
 
 TEST(KeyframePicker, SharpnessIgnoresGainAndFallsWithBlur) {
@@ -113,13 +107,13 @@ TEST(KeyframePicker, RefusesABlurredCandidateAndTakesTheNextSharpOne) {
       return imageSharpness(image);
     };
   };
-  for (int i = 0; i < 4; ++i) EXPECT_EQ(picker.offer(pose({0.1 * i, 0, 0}, 0), of(sharp)), PickDecision::kKeyframe);
-  EXPECT_EQ(picker.offer(pose({0.31, 0, 0}, 0), of(sharp)), PickDecision::kTooClose);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(picker.offer(test::poseAt({0.1 * i, 0, 0}, 0), of(sharp)), PickDecision::kKeyframe);
+  EXPECT_EQ(picker.offer(test::poseAt({0.31, 0, 0}, 0), of(sharp)), PickDecision::kTooClose);
   EXPECT_EQ(sharpness_calls, 4);  // only candidates are judged
-  EXPECT_EQ(picker.offer(pose({0.4, 0, 0}, 0), of(blurred)), PickDecision::kBlurred);
-  EXPECT_EQ(picker.offer(pose({0.41, 0, 0}, 0), of(sharp)), PickDecision::kKeyframe);  // still far from 0.3
+  EXPECT_EQ(picker.offer(test::poseAt({0.4, 0, 0}, 0), of(blurred)), PickDecision::kBlurred);
+  EXPECT_EQ(picker.offer(test::poseAt({0.41, 0, 0}, 0), of(sharp)), PickDecision::kKeyframe);  // still far from 0.3
   // A frame that cannot be judged (non-finite sharpness) is not refused.
-  EXPECT_EQ(picker.offer(pose({0.6, 0, 0}, 0), [] { return std::nan(""); }), PickDecision::kKeyframe);
+  EXPECT_EQ(picker.offer(test::poseAt({0.6, 0, 0}, 0), [] { return std::nan(""); }), PickDecision::kKeyframe);
   EXPECT_EQ(picker.stats().refused_blurred, 1u);
   EXPECT_EQ(picker.stats().keyframes, 6u);
 }
@@ -134,7 +128,7 @@ TEST(KeyframePicker, TakesABlurredFrameAfterTooManyRefusals) {
   double x = 0;
   auto offer = [&](double sharpness) {
     x += 0.1;
-    return picker.offer(pose({x, 0, 0}, 0), [sharpness] { return sharpness; });
+    return picker.offer(test::poseAt({x, 0, 0}, 0), [sharpness] { return sharpness; });
   };
   for (int i = 0; i < 3; ++i) EXPECT_EQ(offer(1.0), PickDecision::kKeyframe);
   EXPECT_EQ(offer(0.5), PickDecision::kBlurred);   // median of 1, 1, 1

@@ -221,6 +221,8 @@ class MappingPipeline {
   AgreementCounts agree(const FusionView& reference, const std::vector<FusionView>& views,
                         const FusionOptions& checks);
   FusionResult fuse(const std::vector<FusionView>& views, const FusionOptions& options);
+  // A call of the GPU fuser failed: logged and counted; the caller runs it on the CPU.
+  void noteFusionCpuFallback(const std::string& message);
   // Drops the GPU copies (estimator images, fuser depth maps) of evicted keyframes.
   void forgetEvicted(const std::vector<int64_t>& evicted);
   // After a mapper call for keyframe `id`: records the fuser key of its depth
