@@ -33,11 +33,11 @@ MappingPipeline::Log stderrLog(bool quiet) {
 }
 
 // Offline: each keyframe waits for the pipeline (push, then step until idle).
-void runOffline(const PosedSequence& sequence, const std::vector<size_t>& picked, const MapToolOptions& options,
+void runOffline(const PosedSequence& sequence, PickedKeyframes* picked, const MapToolOptions& options,
                 MappingPipeline* pipeline, MapOutputs* outputs, MapRunTotals* totals) {
-  for (size_t index : picked) {
+  for (size_t index : picked->indices) {
     const Clock::time_point read_start = Clock::now();
-    Keyframe keyframe = makeKeyframe(sequence.frames[index], options);
+    Keyframe keyframe = makeKeyframe(sequence.frames[index], options, picked->takeDecoded(index));
     totals->reading_s += secondsSince(read_start);
     pipeline->push(std::move(keyframe));
     ++totals->keyframes_pushed;
@@ -48,7 +48,7 @@ void runOffline(const PosedSequence& sequence, const std::vector<size_t>& picked
 // Realtime: a feeder thread pushes keyframes at the recording's stamps
 // (scaled by the rate), as a camera would; the pipeline's queue drops the
 // oldest when the estimator falls behind.
-void runRealtime(const PosedSequence& sequence, const std::vector<size_t>& picked, const MapToolOptions& options,
+void runRealtime(const PosedSequence& sequence, PickedKeyframes* picked, const MapToolOptions& options,
                  MappingPipeline* pipeline, MapOutputs* outputs, MapRunTotals* totals) {
   std::atomic<bool> fed{false}, stop{false};
   std::exception_ptr feeder_error;
@@ -57,14 +57,14 @@ void runRealtime(const PosedSequence& sequence, const std::vector<size_t>& picke
   std::thread feeder([&] {
     try {
       const Clock::time_point start = Clock::now();
-      const double first_stamp = sequence.frames[picked.front()].stamp;
-      for (size_t index : picked) {
+      const double first_stamp = sequence.frames[picked->indices.front()].stamp;
+      for (size_t index : picked->indices) {
         if (stop) break;
         const double due_s = (sequence.frames[index].stamp - first_stamp) / options.realtime_rate;
         std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
                                                   std::chrono::duration<double>(due_s)));
         const Clock::time_point read_start = Clock::now();
-        Keyframe keyframe = makeKeyframe(sequence.frames[index], options);
+        Keyframe keyframe = makeKeyframe(sequence.frames[index], options, picked->takeDecoded(index));
         reading_s += secondsSince(read_start);
         pipeline->push(std::move(keyframe));
         ++pushed;
@@ -106,7 +106,7 @@ int run(const std::vector<std::string>& args) {
   const std::string sequence_dir = args[0], output_dir = args[1];
   MapToolOptions options = parseMapToolArguments(std::vector<std::string>(args.begin() + 2, args.end()));
   const PosedSequence sequence = readPosedSequence(sequence_dir, options.sequence);
-  const PickedKeyframes picking = pickKeyframes(sequence.frames, options.frames);
+  PickedKeyframes picking = pickKeyframes(sequence.frames, options.frames);
   const std::vector<size_t>& picked = picking.indices;
   if (picked.empty()) {
     throw InputError(sequence_dir + ": no frame selected (" + std::to_string(sequence.frames.size()) +
@@ -129,9 +129,9 @@ int run(const std::vector<std::string>& args) {
   MapOutputs outputs(output_dir, options, sequence);
   const Clock::time_point start = Clock::now();
   if (options.realtime_rate > 0) {
-    runRealtime(sequence, picked, options, &pipeline, &outputs, &totals);
+    runRealtime(sequence, &picking, options, &pipeline, &outputs, &totals);
   } else {
-    runOffline(sequence, picked, options, &pipeline, &outputs, &totals);
+    runOffline(sequence, &picking, options, &pipeline, &outputs, &totals);
   }
   totals.wall_s = secondsSince(start);
   const std::string summary = outputs.finish(pipeline, totals);

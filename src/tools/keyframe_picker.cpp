@@ -11,31 +11,45 @@ namespace amhmvs {
 PickedKeyframes pickKeyframes(const std::vector<PosedFrame>& frames, const FrameSelection& selection) {
   KeyframePicker picker(selection.picking);
   PickedKeyframes picked;
-  size_t looked_at = 0;
+  size_t looked_at = 0, decoded_bytes = 0;
   for (size_t i = selection.start; i < frames.size(); i += selection.stride) {
     if (selection.count > 0 && looked_at++ == selection.count) break;
     const PosedFrame& frame = frames[i];
+    ImageU8 image;
     // An unreadable image is not judged here: the run reaches it in order
     // and stops there with its name, after the earlier results are written.
-    const auto sharpness = [&frame] {
+    const auto sharpness = [&frame, &image] {
       try {
-        const ImageU8 image = readImage(frame.image_path);
+        image = readImage(frame.image_path);
         return imageSharpness(image);
       } catch (const InputError&) {
         return std::numeric_limits<double>::quiet_NaN();
       }
     };
-    if (picker.offer(cameraToWorld(frame.camera), sharpness) == PickDecision::kKeyframe) picked.indices.push_back(i);
+    if (picker.offer(cameraToWorld(frame.camera), sharpness) != PickDecision::kKeyframe) continue;
+    picked.indices.push_back(i);
+    if (!image.empty() && decoded_bytes + image.data.size() <= PickedKeyframes::kDecodedBudgetBytes) {
+      decoded_bytes += image.data.size();
+      picked.decoded[i] = std::move(image);
+    }
   }
   picked.stats = picker.stats();
   return picked;
 }
 
-Keyframe makeKeyframe(const PosedFrame& frame, const MapToolOptions& options) {
+ImageU8 PickedKeyframes::takeDecoded(size_t index) {
+  const auto found = decoded.find(index);
+  if (found == decoded.end()) return ImageU8();
+  ImageU8 image = std::move(found->second);
+  decoded.erase(found);
+  return image;
+}
+
+Keyframe makeKeyframe(const PosedFrame& frame, const MapToolOptions& options, ImageU8 decoded) {
   Keyframe keyframe;
   keyframe.id = frame.id;
   keyframe.stamp = frame.stamp;
-  keyframe.image = readImage(frame.image_path);
+  keyframe.image = decoded.empty() ? readImage(frame.image_path) : std::move(decoded);
   keyframe.camera = frame.camera;
   if (!keyframe.image.sameSize(frame.camera.width, frame.camera.height)) {
     throw InputError(frame.image_path + ": image is " + std::to_string(keyframe.image.width) + "x" +

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "keyframe_picker.h"
 #include "map_options.h"
@@ -53,6 +54,38 @@ TEST(MapTool, PicksKeyframesByTranslationAndRotation) {
   EXPECT_EQ(pickKeyframes(frames, selection).indices, (std::vector<size_t>{3, 7, 11, 15, 19}));
   selection.start = 40;
   EXPECT_TRUE(pickKeyframes(frames, selection).indices.empty());
+}
+
+// The blur check's decoded images go to makeKeyframe (each picked image is
+// decoded once per run): the keyframes are those of reading the files.
+TEST(MapTool, KeyframesUseTheImagesTheBlurCheckDecoded) {
+  test::TempDir dir;
+  std::vector<PosedFrame> frames = walkingFrames(12);
+  for (PosedFrame& frame : frames) {
+    ImageU8 image(64, 48, 3);
+    for (size_t i = 0; i < image.data.size(); ++i) image.data[i] = static_cast<uint8_t>((i * 37 + frame.id * 11) % 251);
+    frame.image_path = dir.path() + "/frame" + std::to_string(frame.id) + ".png";
+    writePng(frame.image_path, image);
+  }
+  FrameSelection selection;
+  selection.picking.min_translation_m = 0.045;
+  PickedKeyframes picked = pickKeyframes(frames, selection);
+  ASSERT_EQ(picked.indices, (std::vector<size_t>{0, 5, 10}));
+  ASSERT_EQ(picked.decoded.size(), 3u);  // the picked frames only
+  MapToolOptions options;
+  options.max_image_size = 32;
+  for (size_t index : picked.indices) {
+    const Keyframe from_file = makeKeyframe(frames[index], options);
+    const Keyframe handed_over = makeKeyframe(frames[index], options, picked.takeDecoded(index));
+    EXPECT_EQ(handed_over.image.data, from_file.image.data) << index;
+    EXPECT_EQ(handed_over.image.width, 32);
+    EXPECT_EQ(handed_over.camera.fx, from_file.camera.fx);
+  }
+  EXPECT_TRUE(picked.decoded.empty());
+  EXPECT_TRUE(picked.takeDecoded(0).empty());
+  // Without the blur check nothing is decoded while picking.
+  selection.picking.min_relative_sharpness = 0;
+  EXPECT_TRUE(pickKeyframes(frames, selection).decoded.empty());
 }
 
 TEST(MapTool, ParsesOptionsAndRefusesBadOnes) {
