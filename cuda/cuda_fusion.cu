@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <map>
 #include <vector>
 
@@ -49,9 +50,11 @@ __global__ void fuseKernel(ViewData ref, const ViewData* sources, int source_cou
 }
 
 // Agreement counts of every reference pixel (depth_confidence.h), 0 where it
-// has no usable estimate.
+// has no usable estimate; with `confidence` set also the calibrated
+// confidence and the published depth (confidence_pixel.h).
 __global__ void agreementKernel(ViewData ref, const ViewData* sources, int source_count, Checks checks,
-                                uint8_t* seen, uint8_t* agreeing) {
+                                uint8_t* seen, uint8_t* agreeing, confidence::TableView table,
+                                float min_probability, float* confidence_out, float* published) {
   const int x = blockIdx.x * blockDim.x + threadIdx.x;
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
   if (x >= ref.width || y >= ref.height) return;
@@ -60,6 +63,12 @@ __global__ void agreementKernel(ViewData ref, const ViewData* sources, int sourc
   const int pixel = ref.pixelIndex(x, y);
   seen[pixel] = static_cast<uint8_t>(min(seen_count, 255));
   agreeing[pixel] = static_cast<uint8_t>(min(agreeing_count, 255));
+  if (!confidence_out) return;
+  const float depth = ref.depth[pixel];
+  const float probability = confidence::pixelConfidence(table, seen[pixel], agreeing[pixel], depth,
+                                                        ref.cost ? ref.cost[pixel] : 0.0f);
+  confidence_out[pixel] = probability;
+  published[pixel] = confidence::publishedDepth(depth, probability, min_probability);
 }
 
 // The marks of one reference: its emitted pixels and the source pixels that
@@ -108,6 +117,9 @@ class CudaReferenceFusion : public ReferenceFusion {
   void begin(const std::vector<const FusionView*>& views, const FusionOptions& options) override {
     const Clock::time_point start = Clock::now();
     ++call_;
+    // The last call's uploads from the colour staging are done (it is reused).
+    stream_.synchronize();
+    color_staged_ = 0;
     views_ = views;
     checks_ = checks(options);
     for (DeviceMaps& maps : scratch_) release(std::move(maps));
@@ -173,13 +185,8 @@ class CudaReferenceFusion : public ReferenceFusion {
     times_.check_ms += millisecondsSince(start);
     start = Clock::now();
     const size_t emitted = static_cast<size_t>(selected_count);
-    // Room for every pixel: pinned memory is slow to allocate (milliseconds),
-    // so it never grows again for maps of this size.
-    host_points_.reserve(pixels);
-    compact_.downloadAsync(host_points_.get(), emitted, stream);
-    AMHMVS_CUDA_CHECK(cudaStreamSynchronize(stream));
-    times_.download_ms += millisecondsSince(start);
-    start = Clock::now();
+    // Into the caller's points, laid out alike (fusion_driver.h).
+    KeyframePoint* out = nullptr;
     if (points->empty()) {
       // The usual case (the mapper's one reference): into a vector made
       // while the GPU worked. The next one is sized for 1/8 more than this
@@ -187,33 +194,27 @@ class CudaReferenceFusion : public ReferenceFusion {
       // headroom cost host memory in the 10,000-keyframe replay), and a map
       // that emits more than that takes the slower path once.
       *points = prepared_.take(emitted, std::min(pixels, emitted + emitted / 8 + 256));
-      convertPoints(host_points_.get(), emitted, points->data());
+      out = points->data();
     } else {
-      appendPoints(host_points_.get(), emitted, points);
+      points->resize(points->size() + emitted);
+      out = points->data() + points->size() - emitted;
     }
     times_.convert_ms += millisecondsSince(start);
+    start = Clock::now();
+    AMHMVS_CUDA_CHECK(cudaMemcpyAsync(static_cast<void*>(out), compact_.get(), emitted * sizeof(FusedPoint),
+                                      cudaMemcpyDeviceToHost, stream));
+    AMHMVS_CUDA_CHECK(cudaStreamSynchronize(stream));
+    times_.download_ms += millisecondsSince(start);
     return static_cast<size_t>(candidates);
   }
 
   AgreementCounts countAgreement(int reference, const std::vector<int>& sources) override {
-    const Clock::time_point start = Clock::now();
-    const cudaStream_t stream = stream_.get();
-    const ViewData ref = data(reference);
-    const int count = static_cast<int>(sources.size());
-    uploadSources(sources);
-    const size_t pixels = static_cast<size_t>(ref.width) * ref.height;
-    seen_.reserve(pixels);
-    agreeing_.reserve(pixels);
-    const dim3 block(kBlock, kBlock);
-    const dim3 grid((ref.width + kBlock - 1) / kBlock, (ref.height + kBlock - 1) / kBlock);
-    agreementKernel<<<grid, block, 0, stream>>>(ref, sources_.get(), count, checks_, seen_.get(), agreeing_.get());
-    AMHMVS_CUDA_CHECK_LAUNCH();
-    AgreementCounts counts{ImageU8(ref.width, ref.height), ImageU8(ref.width, ref.height)};
-    seen_.downloadAsync(counts.seen.data.data(), pixels, stream);
-    agreeing_.downloadAsync(counts.agreeing.data.data(), pixels, stream);
-    AMHMVS_CUDA_CHECK(cudaStreamSynchronize(stream));
-    times_.agreement_ms += millisecondsSince(start);
-    return counts;
+    return publish(reference, sources, nullptr, 0).counts;
+  }
+
+  PublishedDepth publishDepth(int reference, const std::vector<int>& sources,
+                              const ConfidenceCalibration& calibration, float min_probability) override {
+    return publish(reference, sources, &calibration, min_probability);
   }
 
   FuserTimes times() const override { return times_; }
@@ -242,6 +243,57 @@ class CudaReferenceFusion : public ReferenceFusion {
   void setDeviceSource(const DeviceDepthMap& map) override { device_source_ = map; }
 
  private:
+  // The agreement counts of views[reference] against views[sources]; with
+  // a calibration also the confidence and the published depth, all in one
+  // kernel, downloaded straight into the result's images.
+  PublishedDepth publish(int reference, const std::vector<int>& sources, const ConfidenceCalibration* calibration,
+                         float min_probability) {
+    const Clock::time_point start = Clock::now();
+    const cudaStream_t stream = stream_.get();
+    const ViewData ref = data(reference);
+    const int count = static_cast<int>(sources.size());
+    uploadSources(sources);
+    const size_t pixels = static_cast<size_t>(ref.width) * ref.height;
+    seen_.reserve(pixels);
+    agreeing_.reserve(pixels);
+    confidence::TableView table{};
+    if (calibration) {
+      confidence_.reserve(pixels);
+      published_.reserve(pixels);
+      // Small and pageable: copied before the call returns.
+      table_.reserve(calibration->probability.size() + calibration->cost_edges.size());
+      table_.uploadAsync(calibration->probability.data(), calibration->probability.size(), stream);
+      AMHMVS_CUDA_CHECK(cudaMemcpyAsync(table_.get() + calibration->probability.size(),
+                                        calibration->cost_edges.data(),
+                                        calibration->cost_edges.size() * sizeof(float), cudaMemcpyHostToDevice,
+                                        stream));
+      table = calibration->view();
+      table.probability = table_.get();
+      table.cost_edges = table_.get() + calibration->probability.size();
+    }
+    const dim3 block(kBlock, kBlock);
+    const dim3 grid((ref.width + kBlock - 1) / kBlock, (ref.height + kBlock - 1) / kBlock);
+    agreementKernel<<<grid, block, 0, stream>>>(ref, sources_.get(), count, checks_, seen_.get(), agreeing_.get(),
+                                                table, min_probability,
+                                                calibration ? confidence_.get() : nullptr, published_.get());
+    AMHMVS_CUDA_CHECK_LAUNCH();
+    // The host images are made while the kernel runs.
+    PublishedDepth out;
+    out.counts = AgreementCounts{ImageU8(ref.width, ref.height), ImageU8(ref.width, ref.height)};
+    seen_.downloadAsync(out.counts.seen.data.data(), pixels, stream);
+    agreeing_.downloadAsync(out.counts.agreeing.data.data(), pixels, stream);
+    if (calibration) {
+      out.confidence = ImageF(ref.width, ref.height);
+      out.depth = ImageF(ref.width, ref.height);
+      out.min_probability = min_probability;
+      confidence_.downloadAsync(out.confidence.data.data(), pixels, stream);
+      published_.downloadAsync(out.depth.data.data(), pixels, stream);
+    }
+    AMHMVS_CUDA_CHECK(cudaStreamSynchronize(stream));
+    times_.agreement_ms += millisecondsSince(start);
+    return out;
+  }
+
   // The sources' view data (and their "used" marks when marking) onto the
   // device for the next kernel on the stream.
   void uploadSources(const std::vector<int>& sources) {
@@ -284,11 +336,28 @@ class CudaReferenceFusion : public ReferenceFusion {
     copyImage(view.depth, on_device ? device_source_.depth : nullptr, &maps.depth, stream);
     copyImage(view.normal, on_device ? device_source_.normal : nullptr, &maps.normal, stream);
     copyImage(view.cost, on_device ? device_source_.cost : nullptr, &maps.cost, stream);
-    copyImage<uint8_t>(view.color, nullptr, &maps.color, stream);
+    copyImage<uint8_t>(stagedColor(view.color), nullptr, &maps.color, stream);
     maps.last_call = call_;
     ++stats_.uploads;
     stats_.device_copies += on_device;
     return maps;
+  }
+
+  // `color` copied into the pinned staging memory (an asynchronous upload
+  // from pageable memory waits for a driver-side copy: ~0.5 ms per 640x480
+  // keyframe on the pipeline's critical path).
+  ImageViewU8 stagedColor(const ImageViewU8& color) {
+    const size_t bytes = color.pixelCount() * color.channels;
+    if (bytes == 0) return color;
+    if (color_staged_ + bytes > color_staging_.bytes()) {
+      stream_.synchronize();  // earlier uploads from the staging are done
+      color_staged_ = 0;
+      color_staging_.reserve(4 * bytes);  // a call's new maps rarely need more
+    }
+    uint8_t* staged = color_staging_.get() + color_staged_;
+    std::memcpy(staged, color.data, bytes);
+    color_staged_ += bytes;
+    return ImageViewU8(staged, color.width, color.height, color.channels);
   }
 
   // A spare buffer set (the largest first: it fits most maps), else empty
@@ -363,12 +432,14 @@ class CudaReferenceFusion : public ReferenceFusion {
   cuda::DeviceBuffer<FusedPoint> pixels_, compact_;
   cuda::DeviceBuffer<uint8_t> emitted_;
   cuda::DeviceBuffer<uint8_t> seen_, agreeing_;  // agreement counts
+  cuda::DeviceBuffer<float> confidence_, published_, table_;  // the confidence, the published depth, its table
   cuda::DeviceBuffer<int> support_;
   bool marking_ = false;
   cuda::DeviceBuffer<unsigned long long> candidates_;
   cuda::DeviceBuffer<int> selected_;
   cuda::DeviceBuffer<uint8_t> temp_;
-  cuda::PinnedBuffer<FusedPoint> host_points_;
+  cuda::PinnedBuffer<uint8_t> color_staging_;  // colour uploads of one call
+  size_t color_staged_ = 0;                    // bytes of it in use
   FuserCacheStats stats_;
   FuserTimes times_;
   PreparedVector<KeyframePoint> prepared_;  // the next reference's output

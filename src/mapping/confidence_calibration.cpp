@@ -9,21 +9,10 @@
 
 namespace amhmvs {
 
-int ConfidenceCalibration::costBin(float cost) const {
-  int bin = 0;
-  while (bin < static_cast<int>(cost_edges.size()) && !(cost < cost_edges[bin])) ++bin;
-  return bin;
-}
+int ConfidenceCalibration::costBin(float cost) const { return view().costBin(cost); }
 
 size_t ConfidenceCalibration::cell(int seen, int agreeing, int bin) const {
-  const int views = max_views + 1;
-  return (static_cast<size_t>(seen) * views + agreeing) * costBins() + bin;
-}
-
-float ConfidenceCalibration::lookup(int seen, int agreeing, float cost) const {
-  seen = std::min(std::max(seen, 0), max_views);
-  agreeing = std::min(std::max(agreeing, 0), seen);
-  return probability[cell(seen, agreeing, costBin(cost))];
+  return static_cast<size_t>(view().cell(seen, agreeing, bin));
 }
 
 std::string ConfidenceCalibration::validate() const {

@@ -23,8 +23,6 @@ fusion::ViewData viewData(const FusionView& view) {
   return fusion::viewData(view, view.depth.data, view.normal.data, view.cost.data, view.color.data, nullptr);
 }
 
-bool hasDepth(float depth) { return std::isfinite(depth) && depth > 0; }
-
 }  // namespace
 
 AgreementCounts countAgreement(const FusionView& reference, const std::vector<FusionView>& views,
@@ -58,26 +56,25 @@ ImageF calibratedConfidence(const AgreementCounts& counts, const ImageViewF& dep
     throw InputError("confidence: agreement counts, depth and cost maps differ in size");
   }
   ImageF confidence(width, height, 1, 0.0f);
+  const confidence::TableView table = calibration.view();
   // Per pixel, on all cores (640x480 single-threaded: milliseconds of the
   // online pipeline's keyframe budget).
+  const long pixels = static_cast<long>(depth.pixelCount());
 #pragma omp parallel for schedule(static)
-  for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) {
-      if (!hasDepth(depth.at(x, y))) continue;
-      const float pixel_cost = cost.empty() ? 0.0f : cost.at(x, y);
-      confidence.at(x, y) = calibration.lookup(counts.seen.at(x, y), counts.agreeing.at(x, y), pixel_cost);
-    }
+  for (long i = 0; i < pixels; ++i) {
+    confidence.data[i] = confidence::pixelConfidence(table, counts.seen.data[i], counts.agreeing.data[i],
+                                                     depth.data[i], cost.empty() ? 0.0f : cost.data[i]);
   }
   return confidence;
 }
 
 ImageF maskDepth(const ImageViewF& depth, const ImageViewF& confidence, float min_probability) {
   if (!confidence.sameSize(depth.width, depth.height)) throw InputError("confidence: depth and confidence differ in size");
-  ImageF masked(depth.width, depth.height, 1, std::numeric_limits<float>::quiet_NaN());
+  ImageF masked(depth.width, depth.height);
   const long pixels = static_cast<long>(depth.pixelCount());
 #pragma omp parallel for schedule(static)
   for (long i = 0; i < pixels; ++i) {
-    if (confidence.data[i] >= min_probability) masked.data[i] = depth.data[i];
+    masked.data[i] = confidence::publishedDepth(depth.data[i], confidence.data[i], min_probability);
   }
   return masked;
 }

@@ -20,18 +20,40 @@ FusionResult DepthMapFuser::fuse(const std::vector<FusionView>& views, const Fus
   return fusion::runFusion(views, options, cuda_.get());
 }
 
-AgreementCounts DepthMapFuser::countAgreement(const FusionView& reference, const std::vector<FusionView>& views,
-                                              const FusionOptions& checks) {
-  if (!cuda_) return amhmvs::countAgreement(reference, views, checks);
-  const std::vector<FusionView> all = fusion::agreementViews(reference, views, checks);
+namespace {
+
+// The reference last, all other views its sources, begun on `backend`
+// without marks (every view counts, whatever was fused before); returns the
+// sources' indices.
+std::vector<int> beginAgreement(const std::vector<FusionView>& all, const FusionOptions& checks,
+                                fusion::ReferenceFusion* backend) {
   std::vector<const FusionView*> pointers;
   std::vector<int> sources;
   for (const FusionView& view : all) pointers.push_back(&view);
   for (int k = 0; k + 1 < static_cast<int>(all.size()); ++k) sources.push_back(k);
   FusionOptions counting = checks;
-  counting.fuse_each_pixel_once = false;  // every view counts, whatever was fused before
-  cuda_->begin(pointers, counting);
+  counting.fuse_each_pixel_once = false;
+  backend->begin(pointers, counting);
+  return sources;
+}
+
+}  // namespace
+
+AgreementCounts DepthMapFuser::countAgreement(const FusionView& reference, const std::vector<FusionView>& views,
+                                              const FusionOptions& checks) {
+  if (!cuda_) return amhmvs::countAgreement(reference, views, checks);
+  const std::vector<FusionView> all = fusion::agreementViews(reference, views, checks);
+  const std::vector<int> sources = beginAgreement(all, checks, cuda_.get());
   return cuda_->countAgreement(static_cast<int>(all.size()) - 1, sources);
+}
+
+PublishedDepth DepthMapFuser::publishDepth(const FusionView& reference, const std::vector<FusionView>& views,
+                                           const ConfidenceOptions& options,
+                                           const ConfidenceCalibration& calibration) {
+  if (!cuda_) return amhmvs::publishDepth(reference, views, options, calibration);
+  const std::vector<FusionView> all = fusion::agreementViews(reference, views, calibration.checks);
+  const std::vector<int> sources = beginAgreement(all, calibration.checks, cuda_.get());
+  return cuda_->publishDepth(static_cast<int>(all.size()) - 1, sources, calibration, options.min_probability);
 }
 
 void DepthMapFuser::forget(int64_t key) {

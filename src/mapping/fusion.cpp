@@ -7,7 +7,6 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
-#include "amhmvs_mapping/core/fresh_memory.h"
 #include "fusion_driver.h"
 
 namespace amhmvs {
@@ -183,19 +182,6 @@ KeyframePoint toKeyframePoint(const FusedPoint& p) {
   k.confidence = p.confidence;
   k.consistent_views = p.consistent_views;
   return k;
-}
-
-void convertPoints(const FusedPoint* points, size_t count, KeyframePoint* out) {
-  const long n = static_cast<long>(count);
-#pragma omp parallel for schedule(static) if (n > 20000)
-  for (long i = 0; i < n; ++i) out[i] = toKeyframePoint(points[i]);
-}
-
-void appendPoints(const FusedPoint* points, size_t count, KeyframePoints* out) {
-  const size_t first = out->size();
-  reserveTouched(out, first + count);
-  out->resize(first + count);
-  convertPoints(points, count, out->data() + first);
 }
 
 std::vector<FusionView> agreementViews(const FusionView& reference, const std::vector<FusionView>& views,

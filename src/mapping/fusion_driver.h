@@ -5,9 +5,10 @@
 // backend (CPU loop in fusion.cpp, CUDA kernel in cuda/cuda_fusion.cu).
 #pragma once
 
-#include <vector>
-
+#include <cstddef>
 #include <memory>
+#include <type_traits>
+#include <vector>
 
 #include "amhmvs_mapping/mapping/depth_confidence.h"
 #include "amhmvs_mapping/mapping/depth_map_fuser.h"
@@ -40,6 +41,16 @@ class ReferenceFusion {
     (void)sources;
     return {};
   }
+  // depth_confidence.h's publishDepth of views[reference] against
+  // views[sources] under begin's options (the calibration's checks).
+  virtual PublishedDepth publishDepth(int reference, const std::vector<int>& sources,
+                                      const ConfidenceCalibration& calibration, float min_probability) {
+    (void)reference;
+    (void)sources;
+    (void)calibration;
+    (void)min_probability;
+    return {};
+  }
   // A map whose depth, normal and cost are on the device already (see
   // DepthMapFuser::setDeviceSource).
   virtual void setDeviceSource(const DeviceDepthMap& map) { (void)map; }
@@ -67,11 +78,18 @@ ViewData viewData(const FusionView& view, const float* depth, const float* norma
                   const float* cost, const uint8_t* color, const uint8_t* used);
 Checks checks(const FusionOptions& options);
 KeyframePoint toKeyframePoint(const FusedPoint& point);
-// `count` points into out[0..count), converted on all cores.
-void convertPoints(const FusedPoint* points, size_t count, KeyframePoint* out);
-// Appends `count` points to `out` in order, converted on all cores into
-// fresh memory touched from all cores (see fresh_memory.h).
-void appendPoints(const FusedPoint* points, size_t count, KeyframePoints* out);
+
+// The GPU copies emitted FusedPoints byte for byte into KeyframePoints (no
+// conversion pass on the host: on the pipeline's critical path that pass
+// competed with the map update's threads for the cores).
+static_assert(std::is_standard_layout<FusedPoint>::value && std::is_standard_layout<KeyframePoint>::value &&
+                  sizeof(FusedPoint) == sizeof(KeyframePoint) &&
+                  offsetof(FusedPoint, position) == offsetof(KeyframePoint, position) &&
+                  offsetof(FusedPoint, normal) == offsetof(KeyframePoint, normal) &&
+                  offsetof(FusedPoint, rgb) == offsetof(KeyframePoint, rgb) &&
+                  offsetof(FusedPoint, confidence) == offsetof(KeyframePoint, confidence) &&
+                  offsetof(FusedPoint, consistent_views) == offsetof(KeyframePoint, consistent_views),
+              "FusedPoint and KeyframePoint must have the same layout");
 
 }  // namespace fusion
 }  // namespace amhmvs

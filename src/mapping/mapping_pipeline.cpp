@@ -164,9 +164,11 @@ void MappingPipeline::init(EstimateFunction primary, EstimateFunction fallback, 
   const auto fuse = [this](const std::vector<FusionView>& views, const FusionOptions& options) {
     return this->fuse(views, options);
   };
-  const auto agree = [this](const FusionView& reference, const std::vector<FusionView>& views,
-                            const FusionOptions& checks) { return this->agree(reference, views, checks); };
-  mapper_.reset(new OnlineMapper(options_.mapper, estimate, fuse, agree));
+  const auto publish = [this](const FusionView& reference, const std::vector<FusionView>& views,
+                              const ConfidenceOptions& confidence, const ConfidenceCalibration& calibration) {
+    return this->publish(reference, views, confidence, calibration);
+  };
+  mapper_.reset(new OnlineMapper(options_.mapper, estimate, fuse, publish));
   if (options_.mapper.pose_refinement.enabled && !PoseRefiner::available())
     report(LogLevel::kWarn, "pose_refinement", std::string(PoseRefiner::unavailableMessage()) +
                                                    ": the sources' poses are the tracker's, unrefined");
@@ -222,17 +224,17 @@ void MappingPipeline::noteFusionCpuFallback(const std::string& message) {
   ++stats_.fusion_cpu_fallbacks;
 }
 
-AgreementCounts MappingPipeline::agree(const FusionView& reference, const std::vector<FusionView>& views,
-                                      const FusionOptions& checks) {
+PublishedDepth MappingPipeline::publish(const FusionView& reference, const std::vector<FusionView>& views,
+                                       const ConfidenceOptions& options, const ConfidenceCalibration& calibration) {
   if (fuser_) {
     try {
-      return fuser_->countAgreement(reference, views, checks);
+      return fuser_->publishDepth(reference, views, options, calibration);
     } catch (const BackendError& e) {
       noteFusionCpuFallback(std::string("confidence on the GPU failed (") + e.what() +
-                            "), this keyframe's is counted on the CPU");
+                            "), this keyframe's is computed on the CPU");
     }
   }
-  return countAgreement(reference, views, checks);
+  return publishDepth(reference, views, options, calibration);
 }
 
 void MappingPipeline::report(LogLevel level, const std::string& kind, const std::string& line) {

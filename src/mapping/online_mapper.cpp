@@ -85,11 +85,16 @@ std::string OnlineMapperOptions::validate() const {
 }
 
 OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction estimate, FuseFunction fuse,
-                           AgreementFunction agree)
+                           PublishFunction publish)
     : options_(options),
       estimate_(std::move(estimate)),
       fuse_(fuse ? std::move(fuse) : FuseFunction(fuseDepthMaps)),
-      agree_(std::move(agree)),
+      publish_(publish ? std::move(publish) : PublishFunction([](const FusionView& reference,
+                                                                   const std::vector<FusionView>& views,
+                                                                   const ConfidenceOptions& confidence,
+                                                                   const ConfidenceCalibration& calibration) {
+        return publishDepth(reference, views, confidence, calibration);
+      })),
       store_(options.store),
       map_(options.map) {
   const std::string problems = options.validate();
@@ -418,8 +423,8 @@ PublishedDepth OnlineMapper::publish(int64_t id, const std::vector<int64_t>& vie
   const StoredKeyframe& stored = store_.entry(id);
   if (!hasDepthAndNormals(stored)) return {};
   const std::vector<FusionView> views = consistencyFusionViews(id, view_ids);
-  return publishDepth(fusionView(static_cast<int>(views.size()), stored), views, options_.confidence,
-                      defaultConfidenceCalibration(), agree_);
+  return publish_(fusionView(static_cast<int>(views.size()), stored), views, options_.confidence,
+                  defaultConfidenceCalibration());
 }
 
 KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& view_ids) const {

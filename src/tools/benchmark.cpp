@@ -362,7 +362,8 @@ std::string pipelineTable(int keyframe_count) {
       const double n = static_cast<double>(fuser.references);
       std::snprintf(line, sizeof(line),
                     "\n%d sources, GPU fusion per reference (mean of %lu): %.2f ms maps onto the device, %.2f check, "
-                    "%.2f download, %.2f into KeyframePoints; agreement counts (confidence) %.2f ms in all\n\n",
+                    "%.2f download into KeyframePoints, %.2f getting them ready; confidence on the GPU (counts, "
+                    "confidence, published depth) %.2f ms in all\n\n",
                     sources, static_cast<unsigned long>(fuser.references), fuser.place_ms / n, fuser.check_ms / n,
                     fuser.download_ms / n, fuser.convert_ms / n, fuser.agreement_ms);
       splits += line;

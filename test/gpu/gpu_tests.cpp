@@ -678,6 +678,30 @@ void gpuAgreement(int width, int height) {
   expect(seen > cpu.seen.data.size() / 2 && differing * 2000 <= cpu.seen.data.size() && repeat == 0 &&
              stats.uploads == 6 && stats.hits == 6,
          text);
+
+  // The published depth and confidence computed on the GPU from those counts
+  // (one kernel) equal the CPU's wherever the counts do.
+  ConfidenceOptions options;
+  const PublishedDepth cpu_published = publishDepth(reference, views, options);
+  const PublishedDepth gpu_published = fuser.publishDepth(reference, views, options);
+  size_t counts_differ = 0, values_differ = 0, published = 0;
+  const auto same = [](float a, float b) { return a == b || (std::isnan(a) && std::isnan(b)); };
+  for (size_t i = 0; i < cpu.seen.data.size(); ++i) {
+    counts_differ += gpu_published.counts.seen.data[i] != gpu.seen.data[i] ||
+                     gpu_published.counts.agreeing.data[i] != gpu.agreeing.data[i];
+    const bool counts_agree = cpu.seen.data[i] == gpu.seen.data[i] && cpu.agreeing.data[i] == gpu.agreeing.data[i];
+    if (!counts_agree) continue;
+    values_differ += !same(cpu_published.depth.data[i], gpu_published.depth.data[i]) ||
+                     cpu_published.confidence.data[i] != gpu_published.confidence.data[i];
+    published += std::isfinite(gpu_published.depth.data[i]);
+  }
+  std::snprintf(text, sizeof(text),
+                "GPU published depth %dx%d at min_probability %.2f: %zu pixels published, counts as countAgreement's "
+                "(%zu differ), depth and confidence as the CPU's where the counts agree (%zu differ)",
+                width, height, options.min_probability, published, counts_differ, values_differ);
+  expect(published > 0 && counts_differ == 0 && values_differ == 0 &&
+             gpu_published.min_probability == options.min_probability,
+         text);
 }
 
 // Fusion reading the estimator's outputs on the device (the pipeline's path:

@@ -133,16 +133,17 @@ TEST(OnlineMapper, FusedKeyframesCarryTheirConfidenceAndPublishedDepth) {
   }
 }
 
-// The confidence counts with the injected agreement function (the pipeline's
+// The confidence comes from the injected publish function (the pipeline's
 // fuser: the GPU's kernel when it fuses there), once per fused keyframe.
-TEST(OnlineMapper, ConfidenceCountsWithTheInjectedAgreementFunction) {
+TEST(OnlineMapper, ConfidenceComesFromTheInjectedPublishFunction) {
   int calls = 0;
-  const AgreementFunction agree = [&calls](const FusionView& reference, const std::vector<FusionView>& views,
-                                           const FusionOptions& checks) {
+  const PublishFunction publish = [&calls](const FusionView& reference, const std::vector<FusionView>& views,
+                                           const ConfidenceOptions& options,
+                                           const ConfidenceCalibration& calibration) {
     ++calls;
-    return countAgreement(reference, views, checks);
+    return publishDepth(reference, views, options, calibration);
   };
-  OnlineMapper mapper(wallOptions(), wallDepth, FuseFunction(), agree);
+  OnlineMapper mapper(wallOptions(), wallDepth, FuseFunction(), publish);
   OnlineMapper reference_mapper(wallOptions(), wallDepth);
   size_t fused_count = 0;
   for (int64_t id = 0; id < 5; ++id) {

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "amhmvs_mapping/mapping/confidence_pixel.h"
 #include "amhmvs_mapping/mapping/fusion.h"
 
 namespace amhmvs {
@@ -37,7 +38,11 @@ struct ConfidenceCalibration {
   size_t cellCount() const { return static_cast<size_t>((max_views + 1) * (max_views + 1) * costBins()); }
   size_t cell(int seen, int agreeing, int bin) const;
   // The probability of a pixel's evidence (counts capped here).
-  float lookup(int seen, int agreeing, float cost) const;
+  float lookup(int seen, int agreeing, float cost) const { return view().lookup(seen, agreeing, cost); }
+  // The table as the per-pixel code reads it (borrows this one's vectors).
+  confidence::TableView view() const {
+    return {probability.data(), cost_edges.data(), static_cast<int>(cost_edges.size()), max_views};
+  }
   // Empty when usable; otherwise what is wrong.
   std::string validate() const;
 };

@@ -79,5 +79,9 @@ PublishedDepth publishDepth(const FusionView& reference, const std::vector<Fusio
                             const ConfidenceOptions& options,
                             const ConfidenceCalibration& calibration = defaultConfidenceCalibration(),
                             const AgreementFunction& count = AgreementFunction());
+// The publication the online mapper calls (publishDepth, or a fuser's:
+// DepthMapFuser::publishDepth runs all of it on the GPU).
+using PublishFunction = std::function<PublishedDepth(const FusionView&, const std::vector<FusionView>&,
+                                                     const ConfidenceOptions&, const ConfidenceCalibration&)>;
 
 }  // namespace amhmvs

@@ -47,9 +47,9 @@ struct FuserTimes {
   uint64_t references = 0;  // reference views fused
   double place_ms = 0;      // maps onto the device (uploads, device copies), "used" marks cleared
   double check_ms = 0;      // consistency kernel, compaction and marks, until the GPU is done
-  double download_ms = 0;   // emitted points into pinned host memory
-  double convert_ms = 0;    // those into the caller's KeyframePoints
-  double agreement_ms = 0;  // countAgreement's kernel and download (confidence)
+  double download_ms = 0;   // emitted points straight into the caller's KeyframePoints
+  double convert_ms = 0;    // getting that vector ready (made while the GPU worked)
+  double agreement_ms = 0;  // countAgreement's / publishDepth's kernel and downloads (confidence)
 };
 
 namespace fusion {
@@ -74,6 +74,13 @@ class DepthMapFuser {
   // again), on the CPU that function. Same InputErrors; BackendError as fuse.
   AgreementCounts countAgreement(const FusionView& reference, const std::vector<FusionView>& views,
                                  const FusionOptions& checks);
+  // depth_confidence.h's publishDepth where the fuser runs: on the GPU the
+  // counts, the confidence and the published depth in one kernel (one
+  // download of each image, no host pass). Same results, InputErrors and
+  // BackendError as countAgreement.
+  PublishedDepth publishDepth(const FusionView& reference, const std::vector<FusionView>& views,
+                              const ConfidenceOptions& options,
+                              const ConfidenceCalibration& calibration = defaultConfidenceCalibration());
   // The maps under `key` (a depth map that was replaced or whose keyframe
   // left the store) or under every key leave the device now, not when the
   // budget pushes them out. No-op on the CPU and for unknown keys.

@@ -105,13 +105,14 @@ struct Checks {
 };
 
 // What the check emits for one reference pixel, in the reference's camera
-// frame.
+// frame. Laid out like KeyframePoint (checked in fusion_driver.h): the GPU
+// downloads its points straight into the caller's KeyframePoints.
 struct FusedPoint {
   float position[3];
   float normal[3];
+  uint8_t rgb[3];
   float confidence;
   uint16_t consistent_views;
-  uint8_t rgb[3];
 };
 
 AMHMVS_HD uint8_t toByte(double value) {
@@ -212,9 +213,9 @@ AMHMVS_HD bool fusePixel(const ViewData& ref, const ViewData* sources, int sourc
   const Vec3d color = colored ? sum_color / colored : Vec3d{128, 128, 128};
   *out = FusedPoint{{float(position.x), float(position.y), float(position.z)},
                     {float(mean_normal.x), float(mean_normal.y), float(mean_normal.z)},
+                    {toByte(color.x), toByte(color.y), toByte(color.z)},
                     visible ? float(consistent) / visible : 0.0f,
-                    static_cast<uint16_t>(consistent),
-                    {toByte(color.x), toByte(color.y), toByte(color.z)}};
+                    static_cast<uint16_t>(consistent)};
   return true;
 }
 

@@ -217,9 +217,9 @@ class MappingPipeline {
   bool run(Work work, int64_t id, const std::function<bool(KeyframeResult*)>& call,
            std::vector<PipelineOutput>* outputs, double queue_wait_ms);
   void account(const PipelineOutput& output);
-  // The confidence's agreement counts where fusion runs (GPU, CPU fallback counted as fusion's).
-  AgreementCounts agree(const FusionView& reference, const std::vector<FusionView>& views,
-                        const FusionOptions& checks);
+  // The confidence and the published depth where fusion runs (GPU, CPU fallback counted as fusion's).
+  PublishedDepth publish(const FusionView& reference, const std::vector<FusionView>& views,
+                         const ConfidenceOptions& options, const ConfidenceCalibration& calibration);
   FusionResult fuse(const std::vector<FusionView>& views, const FusionOptions& options);
   // A call of the GPU fuser failed: logged and counted; the caller runs it on the CPU.
   void noteFusionCpuFallback(const std::string& message);

@@ -205,10 +205,10 @@ class OnlineMapper {
  public:
   // Throws InputError when the options are invalid or estimate is empty.
   // Without a fuse function the mapper fuses with fuseDepthMaps (CPU);
-  // without an agreement function the confidence counts with countAgreement
-  // (CPU).
+  // without a publish function the confidence and the published depth are
+  // computed with publishDepth (CPU).
   OnlineMapper(const OnlineMapperOptions& options, EstimateFunction estimate, FuseFunction fuse = FuseFunction(),
-               AgreementFunction agree = AgreementFunction());
+               PublishFunction publish = PublishFunction());
   ~OnlineMapper();  // waits for a map update in the background
   OnlineMapper(const OnlineMapper&) = delete;
   OnlineMapper& operator=(const OnlineMapper&) = delete;
@@ -326,7 +326,7 @@ class OnlineMapper {
   RefinedRelativePoses refined_poses_;         // what it found, for fusion (pose_refinement.in_fusion)
   EstimateFunction estimate_;
   FuseFunction fuse_;
-  AgreementFunction agree_;
+  PublishFunction publish_;
   KeyframeStore store_;
   VoxelMap map_;
   // The map update in the background (at most one) and what finished.
