@@ -38,6 +38,15 @@ DepthMapView readGroundTruthDepth(const GroundTruthDepthSource& source, const Pi
   return view;
 }
 
+DepthMapView trueSurfaceView(const DepthMapView& truth, const PosedFrame& frame) {
+  DepthMapView view = truth;
+  if (frame.true_camera && frame.ground_truth.registered) {
+    view.camera.R = frame.true_camera->R;
+    view.camera.t = frame.true_camera->t;
+  }
+  return view;
+}
+
 ImageF resampleNearest(const ImageF& image, int width, int height) {
   if (image.sameSize(width, height)) return image;
   ImageF out(width, height, image.channels);

@@ -190,7 +190,8 @@ Truth readTruth(const PosedSequence& sequence, const RunRecord& run) {
     if (!frame || !frame->ground_truth.present() || record.depth.depth.empty()) continue;
     const DepthMapView view = readGroundTruthDepth(frame->ground_truth, record.camera);
     truth.depth[id] = groundTruthDepthIn(view, frame->ground_truth.registered, record.camera);
-    const std::vector<Eigen::Vector3f> points = backprojectDepthMaps({view}, std::max(1, view.depth.width / 320));
+    const std::vector<Eigen::Vector3f> points =
+        backprojectDepthMaps({trueSurfaceView(view, *frame)}, std::max(1, view.depth.width / 320));
     truth.surface.insert(truth.surface.end(), points.begin(), points.end());
   }
   if (truth.depth.empty()) throw InputError(sequence.dir + ": no ground-truth depth for the keyframes");

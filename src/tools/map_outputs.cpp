@@ -342,7 +342,9 @@ bool MapOutputs::compareWithTruth(const KeyframeResult& result, const PosedFrame
                              groundTruthDepthIn(truth, frame->ground_truth.registered, result.camera));
   accuracy_[result.id] = *comparison;  // a refinement replaces the earlier depth map
   if (!truth_points_.count(result.id)) {
-    truth_points_[result.id] = backprojectDepthMaps({truth}, std::max(1, truth.depth.width / kTruthSurfaceColumns));
+    const int stride = std::max(1, truth.depth.width / kTruthSurfaceColumns);
+    truth_points_[result.id] = backprojectDepthMaps({trueSurfaceView(truth, *frame)}, stride);
+    if (frame->true_camera) tracker_placed_truth_[result.id] = backprojectDepthMaps({truth}, stride);
   }
   return true;
 }
@@ -479,22 +481,40 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
 
   JsonFields map;
   std::vector<double> map_within_pct;  // per threshold, when there is ground truth
+  std::vector<double> bound_within_pct;  // the same for exact depth at the tracker's poses (true poses known)
   map.add("points", std::to_string(map_points.size()));
   map.add("voxel_size", number(options_.pipeline.mapper.map.leaf_size));
   if (!truth_points_.empty()) {
     std::vector<Eigen::Vector3f> truth;
     for (const auto& entry : truth_points_) truth.insert(truth.end(), entry.second.begin(), entry.second.end());
     const VoxelGridIndex index(truth, kMapThresholds.back());
-    std::vector<size_t> within(kMapThresholds.size(), 0);
-    for (const Eigen::Vector3f& point : map_points) {
-      const double distance = index.nearestDistance(point, kMapThresholds.back());
-      for (size_t i = 0; i < kMapThresholds.size(); ++i) within[i] += distance <= kMapThresholds[i];
-    }
-    for (size_t i = 0; i < kMapThresholds.size(); ++i) {
-      map_within_pct.push_back(map_points.empty() ? NAN : 100.0 * within[i] / map_points.size());
-      map.add("within_" + number(100 * kMapThresholds[i]) + "cm_pct", number(map_within_pct.back()));
-    }
+    // Share of `points` within each threshold of the true surface.
+    const auto withinPct = [&index](const std::vector<Eigen::Vector3f>& points) {
+      std::vector<size_t> within(kMapThresholds.size(), 0);
+      for (const Eigen::Vector3f& point : points) {
+        const double distance = index.nearestDistance(point, kMapThresholds.back());
+        for (size_t i = 0; i < kMapThresholds.size(); ++i) within[i] += distance <= kMapThresholds[i];
+      }
+      std::vector<double> pct;
+      for (size_t count : within) pct.push_back(points.empty() ? NAN : 100.0 * count / points.size());
+      return pct;
+    };
+    map_within_pct = withinPct(map_points);
+    for (size_t i = 0; i < kMapThresholds.size(); ++i)
+      map.add("within_" + number(100 * kMapThresholds[i]) + "cm_pct", number(map_within_pct[i]));
     map.add("truth_points", std::to_string(truth.size()));
+    map.add("truth_at", quoted(tracker_placed_truth_.empty() ? "recorded poses" : "true poses"));
+    if (!tracker_placed_truth_.empty()) {
+      // The same for the exact depth maps at the tracker's poses: the best a
+      // map placed with those poses can do.
+      std::vector<Eigen::Vector3f> placed;
+      for (const auto& entry : tracker_placed_truth_) placed.insert(placed.end(), entry.second.begin(), entry.second.end());
+      bound_within_pct = withinPct(placed);
+      JsonFields bound_fields;
+      for (size_t i = 0; i < kMapThresholds.size(); ++i)
+        bound_fields.add("within_" + number(100 * kMapThresholds[i]) + "cm_pct", number(bound_within_pct[i]));
+      map.add("exact_depth_at_tracker_poses", bound_fields.object());
+    }
   }
   summary.add("map", map.object());
 
@@ -541,6 +561,12 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   *line += text;
   for (size_t i = 0; i < map_within_pct.size(); ++i) {
     std::snprintf(text, sizeof(text), ", %.1f %% within %.0f cm", map_within_pct[i], 100 * kMapThresholds[i]);
+    *line += text;
+  }
+  if (!bound_within_pct.empty()) {
+    std::snprintf(text, sizeof(text),
+                  " of the true surface (exact depth at the tracker's poses: %.1f / %.1f %%)", bound_within_pct[0],
+                  bound_within_pct.back());
     *line += text;
   }
   return summary.object();

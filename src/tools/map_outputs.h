@@ -73,7 +73,11 @@ class MapOutputs {
   std::map<int64_t, DepthComparison> accuracy_;  // latest depth map of each keyframe
   std::map<int64_t, DepthComparison> published_accuracy_;  // latest published depth map of each keyframe
   std::map<int64_t, DepthRangeEstimate> depth_ranges_;  // of each keyframe's latest depth map (previews)
-  std::map<int64_t, std::vector<Eigen::Vector3f>> truth_points_;  // ground-truth surface, world
+  std::map<int64_t, std::vector<Eigen::Vector3f>> truth_points_;  // true surface, world (trueSurfaceView)
+  // Where the recording has true poses apart from the tracker's: the exact
+  // depth placed at the tracker's poses (what the pose error alone leaves of
+  // a perfect map).
+  std::map<int64_t, std::vector<Eigen::Vector3f>> tracker_placed_truth_;
   std::vector<double> total_ms_, estimate_ms_;
   std::vector<double> pose_refinement_ms_;          // results whose poses were refined
   std::map<std::string, size_t> pose_outcomes_;     // sources by SourcePoseOutcome name

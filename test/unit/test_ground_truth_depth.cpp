@@ -10,6 +10,7 @@
 #include "amhmvs_mapping/eval/ground_truth_depth.h"
 #include "amhmvs_mapping/io/pfm.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
+#include "mapping_test_helpers.h"
 #include "test_helpers.h"
 
 namespace amhmvs {
@@ -115,6 +116,32 @@ TEST(GroundTruthDepth, ComparisonSplitsAccuracyAndCompleteness) {
   EXPECT_EQ(pooled.truth_pixels, 6);
   EXPECT_NEAR(pooled.accuracy.fraction(3), 1.0, 1e-12);
   EXPECT_INPUT_ERROR(compareDepth(ImageF(2, 1), truth), "differ", "size");
+}
+
+// The true surface of a realism-mode frame is its exact depth at its true
+// pose (cams_gt/), not at the tracker's; without a true pose, or for a depth
+// camera of its own, the recorded pose is the truth.
+TEST(GroundTruthDepth, TrueSurfaceIsPlacedAtTheTruePoseWhereThereIsOne) {
+  DepthMapView truth;
+  truth.camera = test::centredCamera(8, 6, 10);
+  truth.depth = ImageF(8, 6, 1, 2.0f);
+  PosedFrame frame;
+  frame.ground_truth.path = "depth.pfm";
+  PinholeCamera true_camera = test::centredCamera(16, 12, 20);  // another resolution: only the pose counts
+  setCameraToWorld(test::poseAt({0.1, -0.2, 0.3}, 30), &true_camera);
+  EXPECT_EQ(trueSurfaceView(truth, frame).camera.t, truth.camera.t);  // no true pose: the recorded one
+  frame.true_camera = true_camera;
+  const DepthMapView placed = trueSurfaceView(truth, frame);
+  EXPECT_EQ(placed.camera.R, true_camera.R);
+  EXPECT_EQ(placed.camera.t, true_camera.t);
+  EXPECT_EQ(placed.camera.fx, truth.camera.fx);
+  EXPECT_EQ(placed.camera.width, 8);
+  EXPECT_EQ(placed.depth.data, truth.depth.data);
+  const std::vector<Eigen::Vector3f> points = backprojectDepthMaps({placed}, 1);
+  ASSERT_FALSE(points.empty());
+  EXPECT_NEAR((points[0].cast<double>() - true_camera.center()).norm(), 2.0 * std::sqrt(1 + (3.5 * 3.5 + 2.5 * 2.5) / 100.0), 1e-5);
+  frame.ground_truth.registered = false;  // a depth camera of its own keeps its recorded pose
+  EXPECT_EQ(trueSurfaceView(truth, frame).camera.t, truth.camera.t);
 }
 
 }  // namespace

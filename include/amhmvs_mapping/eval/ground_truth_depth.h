@@ -17,6 +17,15 @@ namespace amhmvs {
 // source's depth camera. Throws InputError naming the file.
 DepthMapView readGroundTruthDepth(const GroundTruthDepthSource& source, const PinholeCamera& color_camera);
 
+// The true surface of a frame in the world: its ground-truth depth (as read
+// by readGroundTruthDepth) placed at the frame's true pose where the
+// recording has one apart from the tracker's (PosedFrame::true_camera,
+// amhmvs_synthetic --realism: registered depth), else at the recorded pose
+// (7-Scenes: the KinectFusion poses are the ground truth). A map placed with
+// a tracker's poses is judged against this surface, not against the truth
+// moved by the tracker's error.
+DepthMapView trueSurfaceView(const DepthMapView& truth, const PosedFrame& frame);
+
 // Nearest-sample resampling of a 1-channel image to width x height (pixel
 // centres scaled).
 ImageF resampleNearest(const ImageF& image, int width, int height);
