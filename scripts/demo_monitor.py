@@ -3,7 +3,9 @@
 ground-truth depth plays, prints one progress line per keyframe, and at the
 end has the nodelet save its global map (map.ply, via its save_map service),
 checks the map against the ground truth and writes colour-mapped depth images
-and a summary.
+and a summary. The map is judged through the bag's poses (/tf): right for
+sequences whose poses are the truth; for a realism-mode sequence (tracker
+poses apart from the true ones) amhmvs_map reports against the true surface.
 
 Subscribes and calls (remap as needed):
   depth, depth_camera_info  the nodelet's depth/image (32FC1) and its camera_info
