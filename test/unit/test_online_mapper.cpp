@@ -4,9 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cmath>
 #include <limits>
-#include <map>
+#include <cmath>
 #include <set>
 #include <stdexcept>
 
@@ -86,52 +85,10 @@ TEST(OnlineMapper, FirstKeyframeIsASourceThenDeferredFusionAndMap) {
   for (const Eigen::Vector3f& p : cloud.points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
   EXPECT_EQ(mapper.mapRevision(), 3u);
 
-  // Keyframe 4 is fused against its views (at most max_sources, 4) and
-  // keyframes 1-3, fused with 2 views, again with the 3 they have now (their
-  // confidence counts up to 4 views; with 2 nothing is published at the
-  // default level). Keyframe 4 itself had 3 earlier ones.
+  // Each keyframe is fused exactly once: keyframe 4 fuses only itself.
   const KeyframeResult fifth = mapper.process(keyframeAt(4, 2.0));
-  EXPECT_EQ(fusedIds(fifth), (std::vector<int64_t>{4, 1, 2, 3}));  // waiting ones first
-  for (const FusedKeyframe& fused : fifth.fused) {
-    EXPECT_EQ(fused.again, fused.id != 4) << fused.id;
-    EXPECT_EQ(fused.consistency_ids.size(), 3u) << fused.id;
-  }
-  EXPECT_EQ(mapper.mapRevision(), 7u);
-  // With no view added, nobody is fused again.
-  const KeyframeResult sixth = mapper.process(keyframeAt(5, 20.0));  // far along the wall: sees none of them
-  EXPECT_TRUE(sixth.fused.empty());
-}
-
-// The first keyframes are fused once two views see them, when no evidence
-// reaches the default confidence level (the table's best with 2 views is
-// 0.899): they publish nothing then, and everything once a third view is
-// there and they are fused again. Off, they keep their first fusion.
-TEST(OnlineMapper, FirstKeyframesArePublishedAgainWhenMoreViewsSeeThem) {
-  for (const bool again : {true, false}) {
-    OnlineMapperOptions options = wallOptions();
-    options.confidence.again_with_more_views = again;
-    OnlineMapper mapper(options, wallDepth);
-    std::map<int64_t, size_t> published;  // keyframe -> published pixels of its latest fusion
-    std::map<int64_t, int> fusions;
-    for (int64_t id = 0; id < 5; ++id) {
-      for (const FusedKeyframe& fused : mapper.process(keyframeAt(id, 0.5 * id)).fused) {
-        published[fused.id] = std::count_if(fused.published.depth.data.begin(), fused.published.depth.data.end(),
-                                            [](float d) { return std::isfinite(d); });
-        ++fusions[fused.id];
-        if (fused.consistency_ids.size() == 2) EXPECT_EQ(published[fused.id], 0u) << fused.id;
-      }
-    }
-    for (int64_t id = 1; id <= 3; ++id) {
-      EXPECT_EQ(fusions[id], again ? 2 : 1) << id;
-      if (again) {
-        EXPECT_GT(published[id], 0u) << id;
-      } else {
-        EXPECT_EQ(published[id], 0u) << id;
-      }
-    }
-    EXPECT_EQ(fusions[4], 1);
-    EXPECT_GT(published[4], 0u);
-  }
+  EXPECT_EQ(fusedIds(fifth), std::vector<int64_t>{4});
+  EXPECT_EQ(mapper.mapRevision(), 4u);
 }
 
 // With the confidence on (the default) a fused keyframe carries its depth map
@@ -165,7 +122,7 @@ TEST(OnlineMapper, FusedKeyframesCarryTheirConfidenceAndPublishedDepth) {
         }
       }
     }
-    EXPECT_EQ(published, 7u);  // keyframes 1-4 (0 waits for its late depth map), 1-3 again with keyframe 4
+    EXPECT_EQ(published, 4u);  // keyframes 1-4 (0 waits for its late depth map)
   }
   OnlineMapperOptions off = wallOptions();
   off.confidence.enabled = false;
@@ -200,7 +157,7 @@ TEST(OnlineMapper, ConfidenceComesFromTheInjectedPublishFunction) {
     fused_count += result.fused.size();
   }
   EXPECT_EQ(calls, static_cast<int>(fused_count));
-  EXPECT_EQ(fused_count, 7u);
+  EXPECT_EQ(fused_count, 4u);
 }
 
 // One buffer per keyframe: the depth map of a result is the store's, and its

@@ -20,10 +20,8 @@
 //      fusion.min_consistent_views)). Once there are at least
 //      fusion.min_consistent_views of them (at least 1; the requirement is
 //      never capped to the views there are), its depth map is fused against
-//      them (fuseDepthMaps) and its fused points (camera frame) are stored
-//      with it; fused with fewer views than the cap (the first keyframes of
-//      a run), it is fused again when more views see it, during the next 8
-//      depth maps (confidence.again_with_more_views, on with the confidence);
+//      them (fuseDepthMaps) exactly once and its fused points (camera frame)
+//      are stored with it;
 //   6. those points into the global VoxelMap at the keyframe's current pose;
 //   7. with confidence.enabled, when it is fused: its calibrated per-pixel
 //      confidence against the same consistency views and its depth map as
@@ -305,13 +303,8 @@ class OnlineMapper {
   KeyframePoints fuse(int64_t id, const std::vector<int64_t>& view_ids) const;
   // Its confidence and published depth against the same views.
   PublishedDepth publish(int64_t id, const std::vector<int64_t>& view_ids) const;
-  // Re-checks every waiting keyframe; fuses those with enough views, and
-  // again those fused with fewer views than the cap once more see them.
+  // Re-checks every waiting keyframe; fuses those with enough views.
   void fuseWaiting(KeyframeResult* result);
-  // Fuses keyframe `id` against `views` now (its points, confidence, map).
-  void fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResult* result);
-  // The most consistency views a keyframe is fused against.
-  size_t consistencyViewCap() const;
   // Marks stored keyframe `id` done without depth (a source only).
   void markSourceOnly(int64_t id, KeyframeResult* result);
   // Drops a keyframe that left the store from every list and cache (not the map).
@@ -343,14 +336,6 @@ class OnlineMapper {
   mutable size_t map_voxel_count_ = 0;
   uint64_t map_revision_ = 0;
   std::vector<int64_t> waiting_;  // estimated, not fused; oldest first
-  // Fused keyframes whose last fusion had fewer views than the cap: how
-  // many, and how many more depth maps may still bring them more.
-  struct Underfused {
-    size_t views = 0;
-    int rechecks_left = 0;
-  };
-  static constexpr int kUnderfusedRechecks = 8;
-  std::map<int64_t, Underfused> fused_with_fewer_views_;
   size_t evicted_before_fusion_ = 0;
   std::vector<int64_t> waiting_for_sources_;  // no source view yet; oldest first
   std::map<int64_t, EstimateRecord> estimates_;  // keyframes with a depth map
