@@ -28,6 +28,7 @@ PipelineStats statsAfterReset(const PipelineStats& old) {
   fresh.dropped_processing_error = old.dropped_processing_error;
   fresh.late_estimate_failed = old.late_estimate_failed;
   fresh.refinement_estimate_failed = old.refinement_estimate_failed;
+  fresh.fuse_again_failed = old.fuse_again_failed;
   fresh.bad_pose_updates = old.bad_pose_updates;
   fresh.bad_reconfigurations = old.bad_reconfigurations;
   return fresh;
@@ -46,6 +47,7 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"dropped: processing_error", &PipelineStats::dropped_processing_error},
       {"late_estimate_failed", &PipelineStats::late_estimate_failed},
       {"refinement_estimate_failed", &PipelineStats::refinement_estimate_failed},
+      {"fuse_again_failed", &PipelineStats::fuse_again_failed},
       {"depth_maps", &PipelineStats::depth_maps},
       {"late_depth_maps", &PipelineStats::late_depth_maps},
       {"refined_depth_maps", &PipelineStats::refined_depth_maps},
@@ -455,7 +457,10 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
   PipelineOutput output;
   output.result.id = id;
   const bool is_new = work == Work::kNewKeyframe;
-  const std::string what = work == Work::kNewKeyframe ? "keyframe" : work == Work::kLate ? "late" : "refinement";
+  const std::string what = work == Work::kNewKeyframe ? "keyframe"
+                           : work == Work::kLate      ? "late"
+                           : work == Work::kFuseAgain ? "fusion again"
+                                                      : "refinement";
   uint64_t PipelineStats::*failure = nullptr;
   std::string reason;
   try {
@@ -479,14 +484,17 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
     // A new keyframe is dropped; a late one stays a source only; a refined
     // one keeps its depth map.
     if (!failure)
-      failure = work == Work::kLate ? &PipelineStats::late_estimate_failed : &PipelineStats::refinement_estimate_failed;
+      failure = work == Work::kLate        ? &PipelineStats::late_estimate_failed
+                : work == Work::kFuseAgain ? &PipelineStats::fuse_again_failed
+                                           : &PipelineStats::refinement_estimate_failed;
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++(stats_.*failure);
     }
     report(LogLevel::kError, what,
-           (is_new ? "dropped " + keyframeName(output.result.id)
-                   : what + " depth map of " + keyframeName(output.result.id) + " failed") +
+           (is_new                        ? "dropped " + keyframeName(output.result.id)
+            : work == Work::kFuseAgain ? what + " of " + keyframeName(output.result.id) + " failed"
+                                          : what + " depth map of " + keyframeName(output.result.id) + " failed") +
                ": " + reason);
     return true;  // work was attempted
   }
@@ -509,13 +517,15 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
 
 void MappingPipeline::account(const PipelineOutput& output) {
   const KeyframeResult& result = output.result;
-  if (!result.has_depth) {
+  if (!result.has_depth && !result.fused_again) {
     report(LogLevel::kInfo, "no_sources",
            keyframeName(result.id) + ": no source view yet (" + result.selection.reason +
                "): stored as a source; its depth map follows once later keyframes qualify");
   }
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  if (!result.has_depth) {
+  if (result.fused_again) {
+    // no depth map: only its fusion below
+  } else if (!result.has_depth) {
     ++stats_.keyframes_without_sources;
   } else {
     if (!result.refined) ++stats_.depth_maps;
@@ -568,6 +578,8 @@ std::vector<PipelineOutput> MappingPipeline::step() {
     std::lock_guard<std::mutex> queue_lock(queue_mutex_);
     queue_empty = queue_.empty();
   }
+  if (!late_work && queue_empty)
+    late_work = run(Work::kFuseAgain, -1, [&](KeyframeResult* result) { return mapper_->fuseAgain(result); }, &outputs, 0);
   if (!late_work && queue_empty)
     late_work = run(Work::kRefinement, -1, [&](KeyframeResult* result) { return mapper_->refine(result); }, &outputs, 0);
   worked |= late_work;

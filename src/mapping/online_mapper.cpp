@@ -266,6 +266,7 @@ OnlineMapper::Forgotten OnlineMapper::forgetKeyframe(int64_t id) {
     waiting_for_sources_.erase(without_depth);
     forgotten.was_waiting_for_sources = true;
   }
+  fused_with_fewer_views_.erase(id);
   const auto waiting = std::find(waiting_.begin(), waiting_.end(), id);
   if (waiting != waiting_.end()) {
     waiting_.erase(waiting);
@@ -291,44 +292,81 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
   const std::vector<int64_t> candidates = waiting_;
   for (int64_t id : candidates) {
     if (std::find(waiting_.begin(), waiting_.end(), id) == waiting_.end()) continue;  // evicted meanwhile
-    FusedKeyframe fused;
     Clock::time_point start = Clock::now();
-    fused.consistency_ids = consistencyViews(id);
+    std::vector<int64_t> views = consistencyViews(id);
     result->times.fusion_ms += millisecondsSince(start);
-    if (fused.consistency_ids.size() < required) continue;
+    if (views.size() < required) continue;
     waiting_.erase(std::find(waiting_.begin(), waiting_.end(), id));
-    fused.id = id;
-    EstimateRecord& record = estimates_[id];
-    fused.again = record.fused;
-    record.fused = true;
-    fused.stamp = store_.keyframe(id).stamp;
-    fused.camera = store_.keyframe(id).camera;
-    start = Clock::now();
-    fused.points = fuse(id, fused.consistency_ids);
-    result->times.fusion_ms += millisecondsSince(start);
-    if (options_.confidence.enabled) {
-      start = Clock::now();
-      fused.published = publish(id, fused.consistency_ids);
-      result->times.confidence_ms += millisecondsSince(start);
-    }
-    if (!fused.points->empty()) {
-      start = Clock::now();
-      noteEvicted(store_.attachPoints(id, fused.points), result);
-      result->times.store_ms += millisecondsSince(start);
-      start = Clock::now();
-      addToMap(id, fused.points);  // replaces
-    } else {
-      start = Clock::now();
-      finishMapWork();
-      if (map_.contains(id)) {
-        map_.removeKeyframe(id);  // the refined depth map confirms nothing of the old points
-        noteMapChanged();
-      }
-    }
-    result->times.map_ms += millisecondsSince(start);
-    if (id == result->id) result->fused_now = true;
-    result->fused.push_back(std::move(fused));
+    fuseNow(id, std::move(views), result);
   }
+  // Views that come later are near in time: a keyframe fused with fewer
+  // views than the confidence counts waits for more (fuseAgain) during the
+  // next kUnderfusedRechecks depth maps only, so that keyframes which never
+  // get more (a sparse stretch) cost nothing for the rest of the run.
+  for (auto it = fused_with_fewer_views_.begin(); it != fused_with_fewer_views_.end();) {
+    it = --it->second.rechecks_left <= 0 ? fused_with_fewer_views_.erase(it) : std::next(it);
+  }
+}
+
+bool OnlineMapper::fuseAgain(KeyframeResult* result) {
+  const Clock::time_point start = Clock::now();
+  for (const auto& [id, entry] : fused_with_fewer_views_) {
+    if (std::find(waiting_.begin(), waiting_.end(), id) != waiting_.end()) continue;  // refined: waits anew
+    std::vector<int64_t> views = consistencyViews(id);
+    if (views.size() <= entry.views) continue;
+    *result = KeyframeResult();
+    result->id = id;
+    result->fused_again = true;
+    result->camera = store_.keyframe(id).camera;
+    result->times.fusion_ms = millisecondsSince(start);
+    fuseNow(id, std::move(views), result);
+    result->waiting_for_fusion = waiting_.size();
+    result->times.total_ms = millisecondsSince(start);
+    return true;
+  }
+  return false;
+}
+
+void OnlineMapper::fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResult* result) {
+  const size_t counted = std::min(consistencyViewCap(), static_cast<size_t>(defaultConfidenceCalibration().max_views));
+  if (options_.confidence.enabled && options_.confidence.again_with_more_views && views.size() < counted) {
+    fused_with_fewer_views_[id] = Underfused{views.size(), kUnderfusedRechecks};
+  } else {
+    fused_with_fewer_views_.erase(id);
+  }
+  FusedKeyframe fused;
+  fused.consistency_ids = std::move(views);
+  fused.id = id;
+  EstimateRecord& record = estimates_[id];
+  fused.again = record.fused;
+  record.fused = true;
+  fused.stamp = store_.keyframe(id).stamp;
+  fused.camera = store_.keyframe(id).camera;
+  Clock::time_point start = Clock::now();
+  fused.points = fuse(id, fused.consistency_ids);
+  result->times.fusion_ms += millisecondsSince(start);
+  if (options_.confidence.enabled) {
+    start = Clock::now();
+    fused.published = publish(id, fused.consistency_ids);
+    result->times.confidence_ms += millisecondsSince(start);
+  }
+  if (!fused.points->empty()) {
+    start = Clock::now();
+    noteEvicted(store_.attachPoints(id, fused.points), result);
+    result->times.store_ms += millisecondsSince(start);
+    start = Clock::now();
+    addToMap(id, fused.points);  // replaces
+  } else {
+    start = Clock::now();
+    finishMapWork();
+    if (map_.contains(id)) {
+      map_.removeKeyframe(id);  // the refined depth map confirms nothing of the old points
+      noteMapChanged();
+    }
+  }
+  result->times.map_ms += millisecondsSince(start);
+  if (id == result->id) result->fused_now = true;
+  result->fused.push_back(std::move(fused));
 }
 
 void OnlineMapper::addToMap(int64_t id, Shared<KeyframePoints> points) {
@@ -383,6 +421,11 @@ OnlineMapper::~OnlineMapper() {
   }
 }
 
+size_t OnlineMapper::consistencyViewCap() const {
+  return static_cast<size_t>(
+      std::min(kMaxSourceViews, std::max(options_.sources.max_sources, options_.fusion.min_consistent_views)));
+}
+
 std::vector<int64_t> OnlineMapper::consistencyViews(int64_t id) const {
   std::vector<int64_t> candidates;
   for (int64_t other : store_.ids()) {
@@ -390,7 +433,7 @@ std::vector<int64_t> OnlineMapper::consistencyViews(int64_t id) const {
   }
   if (candidates.empty()) return {};
   SourceSelectionOptions options = options_.sources;
-  options.max_sources = std::min(kMaxSourceViews, std::max(options.max_sources, options_.fusion.min_consistent_views));
+  options.max_sources = static_cast<int>(consistencyViewCap());
   // Through the store: the scene depth is the keyframe's own depth map's.
   return selectSources(store_, id, candidates, options).source_ids;
 }
@@ -455,6 +498,7 @@ bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_wor
 void OnlineMapper::reset() {
   store_ = KeyframeStore(options_.store);
   waiting_.clear();
+  fused_with_fewer_views_.clear();
   evicted_before_fusion_ = 0;
   waiting_for_sources_.clear();
   evicted_without_depth_ = 0;

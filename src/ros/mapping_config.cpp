@@ -110,6 +110,7 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   double min_probability = o->confidence.min_probability;
   read(nh, "confidence/min_probability", &min_probability);
   o->confidence.min_probability = static_cast<float>(min_probability);
+  read(nh, "confidence/again_with_more_views", &o->confidence.again_with_more_views);
 }
 
 // Every option of an option table that is set as ~<group>/<name>; a bad

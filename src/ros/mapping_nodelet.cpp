@@ -95,6 +95,9 @@ void MappingNodelet::workerLoop() {
     const std::vector<amhmvs::PipelineOutput> outputs = pipeline_->step();
     for (const amhmvs::PipelineOutput& output : outputs) {
       const amhmvs::KeyframeResult& result = output.result;
+      if (result.fused_again)
+        NODELET_INFO("keyframe %ld: fused and published again with %zu consistency views", static_cast<long>(result.id),
+                     result.fused.empty() ? size_t{0} : result.fused.front().consistency_ids.size());
       if (result.late || result.refined)
         NODELET_INFO("keyframe %ld: %s depth map from %zu source views", static_cast<long>(result.id),
                      result.late ? "late" : "refined", result.selection.source_ids.size());

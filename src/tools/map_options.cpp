@@ -39,6 +39,8 @@ bool setFusionOption(const std::string& name, const std::string& value, OnlineMa
   else if (name == "fusion_min_consistent_views") fusion.min_consistent_views = parseValue<int>(name, value);
   else if (name == "confidence") mapper->confidence.enabled = parseSwitch(name, value);
   else if (name == "confidence_level") mapper->confidence.min_probability = parseValue<float>(name, value);
+  else if (name == "confidence_again_with_more_views")
+    mapper->confidence.again_with_more_views = parseSwitch(name, value);
   else return false;
   return true;
 }
@@ -56,7 +58,8 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     std::string name, value;
     nextOption(arguments, &i,
                {"quiet", "write_depth", "write_previews", "write_clouds", "write_confidence", "skip_to_newest",
-                "confidence", "pose_refinement", "start_from_neighbours", "geometric_refinement"},
+                "confidence", "confidence_again_with_more_views", "pose_refinement", "start_from_neighbours",
+                "geometric_refinement"},
                &name, &value);
     if (name == "quiet") options.quiet = parseSwitch(name, value);
     else if (name == "write_depth") options.write_depth = parseSwitch(name, value);
@@ -198,6 +201,10 @@ std::string mapToolUsage() {
          "                       written unmasked when estimated)\n"
          "  --confidence_level P written depth: NaN where the confidence (the probability of\n"
          "                       being within 5 %) is below P (default 0.97; 0: nothing masked)\n"
+         "  --confidence_again_with_more_views[=0|1]  fuse and write a keyframe again when more\n"
+         "                       views see it than when it was fused, up to the 4 the confidence\n"
+         "                       counts (the first keyframes of a run; idle work during the next\n"
+         "                       8 depth maps; default 1)\n"
          "  --queue_size N       keyframes waiting (default: all offline, 4 with --realtime)\n"
          "  --skip_to_newest[=0|1]  after a queue overflow take the newest keyframe (default 1)\n"
          "Pose refinement (before stereo; depth, clouds and map stay in the tracker's frame):\n"

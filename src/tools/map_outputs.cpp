@@ -70,6 +70,7 @@ std::string id6(int64_t id) {
 }
 
 const char* kindOf(const KeyframeResult& result) {
+  if (result.fused_again) return "fused_again";
   if (!result.has_depth) return "source_only";
   if (result.refined) return "refined";
   return result.late ? "late" : "new";
@@ -419,7 +420,7 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   summary.add("keyframes_refused", refused.object());
   summary.add("keyframes_pushed", std::to_string(totals.keyframes_pushed));
   JsonFields kinds;
-  for (const char* kind : {"new", "late", "refined", "source_only"}) {
+  for (const char* kind : {"new", "late", "refined", "source_only", "fused_again"}) {
     kinds.add(kind, std::to_string(kinds_.count(kind) ? kinds_.at(kind) : 0));
   }
   summary.add("results", kinds.object());
@@ -521,12 +522,13 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   char text[512];
   std::snprintf(text, sizeof(text),
                 "%zu keyframes of %zu frames (refused: %llu blurred, %llu pure rotations): %zu new, %zu late, %zu refined depth maps (%llu refinements "
-                "rejected), %llu dropped; %.1f s",
+                "rejected), %zu fused again with more views, %llu dropped; %.1f s",
                 totals.keyframes_picked, totals.frames_looked_at,
                 static_cast<unsigned long long>(totals.picking.refused_blurred),
                 static_cast<unsigned long long>(totals.picking.refused_pure_rotation), depth_maps, late,
                 kinds_.count("refined") ? kinds_.at("refined") : 0,
                 static_cast<unsigned long long>(stats.refinements_rejected),
+                kinds_.count("fused_again") ? kinds_.at("fused_again") : 0,
                 static_cast<unsigned long long>(stats.droppedTotal()), totals.wall_s);
   *line = text;
   if (depth_maps + late > 0) {

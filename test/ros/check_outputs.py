@@ -143,11 +143,14 @@ class ReplayOutputs(unittest.TestCase):
         # first keyframe's comes late (after the second's). Refined depth
         # maps come again, once per keyframe at most (max_refinements 1).
         # Published when fused: in fusion order, again when a refined one is
-        # fused again.
+        # fused again, and again when more consistency views see a keyframe
+        # fused with fewer than 4 (the first ones: 2 -> 3 -> 4 views).
         self.assertEqual(sorted(set(depth_stamps)), image_stamps)
         if not self.published_when_fused:
             self.assertEqual(depth_stamps[:2], [image_stamps[1], image_stamps[0]])
-        self.assertTrue(all(depth_stamps.count(s) <= 2 for s in image_stamps))
+        most = 4 if self.published_when_fused else 2
+        self.assertTrue(all(depth_stamps.count(s) <= most for s in image_stamps),
+                        'depth images per keyframe: %s' % [depth_stamps.count(s) for s in image_stamps])
         again = 'keyframes_fused_again' if self.published_when_fused else 'refined_depth_maps'
         self.assertEqual(len(depth_stamps) - len(image_stamps), int(self.rec.diagnostics.get(again, '0')))
 

@@ -121,7 +121,9 @@ TEST_F(MapCliRoom, MapsTheRoomWithExactGroundTruth) {
   const size_t results = static_cast<size_t>(jsonNumber(summary, "results", "new") +
                                              jsonNumber(summary, "results", "late") +
                                              jsonNumber(summary, "results", "refined") +
-                                             jsonNumber(summary, "results", "source_only"));
+                                             jsonNumber(summary, "results", "source_only") +
+                                             jsonNumber(summary, "results", "fused_again"));
+  EXPECT_GT(jsonNumber(summary, "results", "fused_again"), 0) << summary;  // the first keyframes, with more views
   EXPECT_EQ(lineCount(out.file("keyframes.jsonl")), results);
   EXPECT_EQ(lineCount(out.file("keyframes.csv")), results + 1);
   // Both JSON files parse (strictly: no NaN), every row with its fields.
@@ -133,10 +135,11 @@ TEST_F(MapCliRoom, MapsTheRoomWithExactGroundTruth) {
   ASSERT_EQ(parsed.exit_code, 0) << parsed.output;
   EXPECT_EQ(parsed.output.substr(0, parsed.output.find(' ')), std::to_string(results)) << parsed.output;
   // Measured (CPU): depth within 1/2/5/10 %: 61.6 / 83.1 / 91.0 / 92.7 %,
-  // completeness 99.1 %; published (confidence >= 0.97): 73.1 / 93.3 / 99.0 /
-  // 99.4 %, completeness 43.8 %; map 13805 points, 85.5 % within 2 cm and
-  // 99.3 % within 5 cm of the true surface (with 1 % relative depth in the
-  // fusion: 11293 points, 87.3 and 99.7 %).
+  // completeness 99.1 %; published (confidence >= 0.97): 72.2 / 92.6 / 98.9 /
+  // 99.4 %, completeness 60.1 %; map 14894 points, 85.1 % within 2 cm and
+  // 99.4 % within 5 cm of the true surface (before session 9, without
+  // fusing the first keyframes again: published 99.0 % within 5 % at 43.8 %,
+  // map 13805 points, 85.5 / 99.3 %).
   EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_1pct"), 58) << summary;
   EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_5pct"), 89) << summary;
   EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_10pct"), 90) << summary;
@@ -166,10 +169,13 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
   const std::string summary = readText(dir.file("out/summary.json"));
   EXPECT_EQ(jsonNumber(summary, "results", "new") + jsonNumber(summary, "results", "late"), 6) << summary;
   // Measured (CPU): depth within 1/2/5/10 %: 8.4 / 18.2 / 38.0 / 61.5 %,
-  // completeness 98.9 %; published (confidence >= 0.97): 51.0 % within 5 %,
-  // completeness 19.8 %; map 71 points, 94.4 / 97.2 % within 2 / 5 cm of the
+  // completeness 98.9 %; published (confidence >= 0.97): 44.8 % within 5 %,
+  // completeness 26.5 %; map 87 points, 94.3 / 97.7 % within 2 / 5 cm of the
   // true surface (exact poses, MapCliRoom above: 91.0 % within 5 %). The pose
   // noise (2.6 px at 320 px) costs the most; issue 12 is to win it back.
+  // Without fusing the first keyframes again when more views see them
+  // (--confidence_again_with_more_views=0, before session 9): published
+  // 51.0 % within 5 % at 19.8 %, map 71 points, 94.4 / 97.2 %.
   // The map is judged against the true surface (the depth at the true poses,
   // cams_gt/), not the truth moved by the tracker's error: the exact depth
   // maps placed at the tracker's poses, the best a map at those poses can do,
@@ -180,9 +186,9 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
   expectAbove(summary, {{"depth_accuracy", "within_5pct", 35},
                         {"depth_accuracy", "within_10pct", 58},
                         {"depth_accuracy", "completeness_pct", 97},
-                        {"published_depth_accuracy", "within_5pct", 47},
-                        {"published_depth_accuracy", "completeness_pct", 17},
-                        {"map", "points", 50},
+                        {"published_depth_accuracy", "within_5pct", 42},
+                        {"published_depth_accuracy", "completeness_pct", 24},
+                        {"map", "points", 75},
                         {"map", "within_2cm_pct", 85},
                         {"map", "within_5cm_pct", 85}});
 
@@ -198,17 +204,21 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
   std::cout << refined.output;
   const std::string refined_summary = readText(dir.file("refined/summary.json"));
   // Measured (CPU): 50.3 / 76.4 / 90.3 / 92.2 % within 1/2/5/10 %,
-  // completeness 99.0 %; map 3772 points, 64.6 % within 2 cm, 97.1 % within
-  // 5 cm of the true surface (against the truth at the tracker's poses, as
-  // measured before session 9: 91.0 / 99.2 %); the exact depth at the
-  // tracker's poses: 73.4 / 99.1 %. Every one of the 23 sources refined,
-  // median 43-90 ms per result.
+  // completeness 99.0 %; published: 98.8 % within 5 % at 61.2 %; map 4798
+  // points, 58.1 % within 2 cm, 93.1 % within 5 cm of the true surface; the
+  // exact depth at the tracker's poses: 73.4 / 99.1 %. Without fusing the
+  // first keyframes again (--confidence_again_with_more_views=0): published
+  // 99.0 % at 44.7 %, map 3772 points, 64.6 / 97.1 % (against the truth at
+  // the tracker's poses, as measured before session 9: 91.0 / 99.2 %). Every
+  // one of the 23 sources refined, median 43-90 ms per result.
   expectAbove(refined_summary, {{"depth_accuracy", "within_5pct", 87},
                                 {"depth_accuracy", "within_10pct", 90},
                                 {"depth_accuracy", "completeness_pct", 97},
-                                {"map", "points", 3200},
-                                {"map", "within_2cm_pct", 62},
-                                {"map", "within_5cm_pct", 96},
+                                {"published_depth_accuracy", "within_5pct", 97},
+                                {"published_depth_accuracy", "completeness_pct", 58},
+                                {"map", "points", 4300},
+                                {"map", "within_2cm_pct", 55},
+                                {"map", "within_5cm_pct", 91},
                                 {"pose_refinement", "sources_refined", 20}});
   EXPECT_EQ(jsonNumber(refined_summary, "pose_refinement", "sources_rejected"), 0) << refined_summary;
   // The pipeline's counters (the nodelet's diagnostics) agree with the results.
@@ -341,20 +351,22 @@ TEST(MapCli, RedkitchenSevenScenesAgainstKinectDepth) {
   std::cout << r.output;
   const std::string summary = readText(out.file("summary.json"));
   // Measured (CPU): 8 keyframes of 40 frames (6 new, 2 late, 4 refined);
-  // depth within 5/10 %: 47.8 / 65.2 %, completeness 97.9 %; published
-  // (confidence >= 0.97): 75.9 / 89.5 %, completeness 25.4 %; map 807
-  // points, 41.4 % within 2 cm and 92.6 % within 5 cm of the Kinect surface
-  // (1 % relative depth in the fusion: 312 points, 37.5 and 93.6 %).
+  // depth within 5/10 %: 47.0 / 64.8 %, completeness 98.0 %; published
+  // (confidence >= 0.97): 71.5 / 87.1 %, completeness 42.5 %; map 1146
+  // points, 34.3 % within 2 cm and 92.1 % within 5 cm of the Kinect surface.
+  // Without fusing the first keyframes again when more views see them
+  // (--confidence_again_with_more_views=0, before session 9): published
+  // 73.1 / 88.0 % at 26.7 %, map 919 points, 30.8 / 92.3 %.
   EXPECT_EQ(jsonNumber(summary, "", "keyframes_picked"), 8) << summary;
   EXPECT_EQ(jsonNumber(summary, "results", "new") + jsonNumber(summary, "results", "late"), 8) << summary;
   expectAbove(summary, {{"depth_accuracy", "within_5pct", 45},
                         {"depth_accuracy", "within_10pct", 62},
                         {"depth_accuracy", "completeness_pct", 95},
-                        {"published_depth_accuracy", "within_5pct", 73},
-                        {"published_depth_accuracy", "within_10pct", 87},
-                        {"published_depth_accuracy", "completeness_pct", 23},
+                        {"published_depth_accuracy", "within_5pct", 69},
+                        {"published_depth_accuracy", "within_10pct", 85},
+                        {"published_depth_accuracy", "completeness_pct", 40},
                         {"map", "within_5cm_pct", 90},
-                        {"map", "points", 700}});
+                        {"map", "points", 1000}});
   const ImageF depth = readPfm(out.file("depth/000042.pfm"));
   EXPECT_EQ(depth.width, 160);
   EXPECT_EQ(depth.height, 120);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
 #include <set>
 #include <string>
 #include <vector>
@@ -46,9 +47,25 @@ std::vector<std::string> describe(const std::vector<PipelineOutput>& outputs) {
   std::vector<std::string> out;
   for (const PipelineOutput& output : outputs) {
     const KeyframeResult& r = output.result;
-    out.push_back(std::string(r.late ? "late " : r.refined ? "refined " : "new ") + std::to_string(r.id));
+    out.push_back(std::string(r.late ? "late " : r.refined ? "refined " : r.fused_again ? "again " : "new ") +
+                  std::to_string(r.id));
   }
   return out;
+}
+
+// Six keyframes queued at once along the wall, then step() until idle: the
+// outputs in order (describe), each also handed to `each`.
+std::vector<std::string> stepSixQueuedKeyframes(MappingPipeline* pipeline,
+                                                const std::function<void(const PipelineOutput&)>& each = {}) {
+  for (int i = 0; i < 6; ++i) pipeline->push(keyframeAt(i, 0.25 * i));
+  std::vector<std::string> order;
+  while (true) {
+    const std::vector<PipelineOutput> outputs = pipeline->step();
+    if (outputs.empty()) break;
+    for (const std::string& what : describe(outputs)) order.push_back(what);
+    if (each) for (const PipelineOutput& output : outputs) each(output);
+  }
+  return order;
 }
 
 TEST(MappingPipeline, FullQueueDropsTheOldestAndSaysWhatToChange) {
@@ -153,13 +170,7 @@ TEST(MappingPipeline, RefinementWaitsWhileKeyframesAreQueued) {
   PipelineOptions options = wallPipeline();
   options.mapper.refinement.min_score_gain = 1.01;
   WallPipeline wall(options);
-  for (int i = 0; i < 6; ++i) wall.pipeline.push(keyframeAt(i, 0.25 * i));
-  std::vector<std::string> order;
-  while (true) {
-    const std::vector<PipelineOutput> outputs = wall.pipeline.step();
-    if (outputs.empty()) break;
-    for (const std::string& what : describe(outputs)) order.push_back(what);
-  }
+  const std::vector<std::string> order = stepSixQueuedKeyframes(&wall.pipeline);
   // Every new keyframe comes before the first refinement.
   size_t last_new = 0, first_refined = order.size();
   for (size_t i = 0; i < order.size(); ++i) {
@@ -168,6 +179,43 @@ TEST(MappingPipeline, RefinementWaitsWhileKeyframesAreQueued) {
   }
   ASSERT_LT(first_refined, order.size()) << "no refinement happened";
   EXPECT_LT(last_new, first_refined);
+}
+
+// Fusing an early keyframe again with more views (it was fused with two and
+// published nothing) is idle work too: after every queued keyframe, counted
+// as a fusion again, with its own output.
+TEST(MappingPipeline, FusionAgainWithMoreViewsWaitsWhileKeyframesAreQueued) {
+  PipelineOptions options = wallPipeline();
+  options.mapper.refinement.max_refinements = 0;
+  WallPipeline wall(options);
+  size_t published_again = 0;
+  const std::vector<std::string> order = stepSixQueuedKeyframes(&wall.pipeline, [&](const PipelineOutput& output) {
+    if (!output.result.fused_again) return;
+    ASSERT_EQ(output.result.fused.size(), 1u);
+    const ImageF& depth = output.result.fused[0].published.depth;
+    published_again += std::count_if(depth.data.begin(), depth.data.end(), [](float d) { return std::isfinite(d); });
+  });
+  size_t last_new = 0, first_again = order.size(), again = 0;
+  for (size_t i = 0; i < order.size(); ++i) {
+    if (order[i].rfind("new", 0) == 0) last_new = i;
+    if (order[i].rfind("again", 0) != 0) continue;
+    ++again;
+    if (first_again == order.size()) first_again = i;
+  }
+  ASSERT_GT(again, 0u) << "no fusion again happened";
+  EXPECT_LT(last_new, first_again);
+  EXPECT_GT(published_again, 0u);
+  const PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.keyframes_fused_again, again);
+  EXPECT_EQ(stats.depth_maps, 6u);  // a fusion again is no depth map
+  EXPECT_EQ(stats.keyframes_without_sources, 1u);
+  EXPECT_EQ(stats.fuse_again_failed, 0u);
+  // Off: never.
+  options.mapper.confidence.again_with_more_views = false;
+  WallPipeline off(options);
+  for (int i = 0; i < 6; ++i) off.pipeline.push(keyframeAt(i, 0.25 * i));
+  off.pipeline.runUntilIdle(nullptr);
+  EXPECT_EQ(off.pipeline.stats().keyframes_fused_again, 0u);
 }
 
 TEST(MappingPipeline, RejectedRefinementIsCountedLoggedAndNotPublished) {

@@ -4,8 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <limits>
 #include <cmath>
+#include <limits>
+#include <map>
 #include <set>
 #include <stdexcept>
 
@@ -85,10 +86,62 @@ TEST(OnlineMapper, FirstKeyframeIsASourceThenDeferredFusionAndMap) {
   for (const Eigen::Vector3f& p : cloud.points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
   EXPECT_EQ(mapper.mapRevision(), 3u);
 
-  // Each keyframe is fused exactly once: keyframe 4 fuses only itself.
+  // Keyframe 4 fuses only itself (against its 3 earlier keyframes).
   const KeyframeResult fifth = mapper.process(keyframeAt(4, 2.0));
   EXPECT_EQ(fusedIds(fifth), std::vector<int64_t>{4});
   EXPECT_EQ(mapper.mapRevision(), 4u);
+  // Keyframes 1-3, fused with 2 views (the confidence counts up to 4; with 2
+  // nothing reaches the default level), are fused again with the 3 they have
+  // now, one per fuseAgain() call (the pipeline's idle work), oldest first.
+  for (int64_t id = 1; id <= 3; ++id) {
+    KeyframeResult again;
+    ASSERT_TRUE(mapper.fuseAgain(&again)) << id;
+    EXPECT_TRUE(again.fused_again);
+    EXPECT_FALSE(again.has_depth);
+    EXPECT_EQ(again.id, id);
+    ASSERT_EQ(fusedIds(again), std::vector<int64_t>{id});
+    EXPECT_TRUE(again.fused[0].again);
+    EXPECT_EQ(again.fused[0].consistency_ids.size(), 3u);
+    EXPECT_TRUE(mapper.map().contains(id));
+  }
+  KeyframeResult none;
+  EXPECT_FALSE(mapper.fuseAgain(&none));  // nobody has more views now
+  EXPECT_EQ(mapper.mapRevision(), 7u);
+}
+
+// The first keyframes are fused once two views see them, when no evidence
+// reaches the default confidence level (the table's best with 2 views is
+// 0.899): they publish nothing then, and everything once a third view is
+// there and they are fused again. Off, they keep their first fusion.
+TEST(OnlineMapper, FirstKeyframesArePublishedAgainWhenMoreViewsSeeThem) {
+  for (const bool again : {true, false}) {
+    OnlineMapperOptions options = wallOptions();
+    options.confidence.again_with_more_views = again;
+    OnlineMapper mapper(options, wallDepth);
+    std::map<int64_t, size_t> published;  // keyframe -> published pixels of its latest fusion
+    std::map<int64_t, int> fusions;
+    const auto note = [&](const KeyframeResult& result) {
+      for (const FusedKeyframe& fused : result.fused) {
+        published[fused.id] = std::count_if(fused.published.depth.data.begin(), fused.published.depth.data.end(),
+                                            [](float d) { return std::isfinite(d); });
+        ++fusions[fused.id];
+        if (fused.consistency_ids.size() == 2) EXPECT_EQ(published[fused.id], 0u) << fused.id;
+      }
+    };
+    for (int64_t id = 0; id < 5; ++id) note(mapper.process(keyframeAt(id, 0.5 * id)));
+    KeyframeResult later;
+    while (mapper.fuseAgain(&later)) note(later);
+    for (int64_t id = 1; id <= 3; ++id) {
+      EXPECT_EQ(fusions[id], again ? 2 : 1) << id;
+      if (again) {
+        EXPECT_GT(published[id], 0u) << id;
+      } else {
+        EXPECT_EQ(published[id], 0u) << id;
+      }
+    }
+    EXPECT_EQ(fusions[4], 1);
+    EXPECT_GT(published[4], 0u);
+  }
 }
 
 // With the confidence on (the default) a fused keyframe carries its depth map

@@ -32,7 +32,8 @@
 //      newest after an overflow (skip_to_newest);
 //   3. one late depth map (a keyframe that had no source when it arrived and
 //      has one now);
-//   4. only when the queue is empty and 3 did nothing: one refinement.
+//   4. only when the queue is empty and 3 did nothing: one keyframe fused
+//      again with more views (OnlineMapper::fuseAgain), else one refinement.
 // New keyframes thus keep their rate; late work fills the gaps. Every output
 // carries the keyframe's own id and stamp (late and refined results too).
 //
@@ -94,6 +95,7 @@ struct PipelineStats {
   uint64_t dropped_processing_error = 0;  // any other exception while processing
   uint64_t late_estimate_failed = 0;
   uint64_t refinement_estimate_failed = 0;
+  uint64_t fuse_again_failed = 0;      // fusions of an earlier keyframe with more views that threw
   // Work done.
   uint64_t depth_maps = 0;             // first depth maps (late ones included)
   uint64_t late_depth_maps = 0;
@@ -211,7 +213,7 @@ class MappingPipeline {
   void init(EstimateFunction primary, EstimateFunction fallback, const std::string& backend_name);
   void applyPending();
   // The three kinds of work of a step (what a failure of each counts as).
-  enum class Work { kNewKeyframe, kLate, kRefinement };
+  enum class Work { kNewKeyframe, kLate, kFuseAgain, kRefinement };
   // Runs one mapper call with error handling: false when it had nothing to
   // do, true when it worked or threw (counted and logged).
   bool run(Work work, int64_t id, const std::function<bool(KeyframeResult*)>& call,

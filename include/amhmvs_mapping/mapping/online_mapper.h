@@ -20,8 +20,10 @@
 //      fusion.min_consistent_views)). Once there are at least
 //      fusion.min_consistent_views of them (at least 1; the requirement is
 //      never capped to the views there are), its depth map is fused against
-//      them (fuseDepthMaps) exactly once and its fused points (camera frame)
-//      are stored with it;
+//      them (fuseDepthMaps) and its fused points (camera frame) are stored
+//      with it; fused with fewer views than the confidence counts (the first
+//      keyframes of a run), it is fused again by fuseAgain() once more views
+//      see it, during the next 8 depth maps (confidence.again_with_more_views);
 //   6. those points into the global VoxelMap at the keyframe's current pose;
 //   7. with confidence.enabled, when it is fused: its calibrated per-pixel
 //      confidence against the same consistency views and its depth map as
@@ -179,6 +181,7 @@ struct KeyframeResult {
   int64_t id = 0;
   bool late = false;             // from estimateLate(): a keyframe that arrived earlier
   bool refined = false;          // from refine(): a new depth map of an earlier keyframe
+  bool fused_again = false;      // from fuseAgain(): an earlier keyframe fused again, no new depth map
   // refine(): the new depth map was worse by the estimator's evidence and was
   // dropped; the keyframe keeps its depth map and points (`depth` is the
   // dropped one, nothing was fused). refinement_evidence says why.
@@ -240,6 +243,14 @@ class OnlineMapper {
   // estimate function propagates; the keyframe keeps its depth map and is
   // not refined again.
   bool refine(KeyframeResult* result);
+
+  // With confidence.again_with_more_views: fuses and publishes again one
+  // keyframe that was fused with fewer consistency views than the confidence
+  // counts (calibration.max_views; the first keyframes of a run, fused with
+  // two views, where no pixel reaches 0.97) and has more now, oldest first
+  // (result->fused_again; no new depth map). Low priority work: the
+  // pipeline runs it only when no keyframe waits. False when none qualifies.
+  bool fuseAgain(KeyframeResult* result);
 
   // Loop closure: new camera-to-world pose of a stored keyframe; moves its map
   // points. False when the id is not (or no longer) stored. Throws InputError
@@ -305,6 +316,10 @@ class OnlineMapper {
   PublishedDepth publish(int64_t id, const std::vector<int64_t>& view_ids) const;
   // Re-checks every waiting keyframe; fuses those with enough views.
   void fuseWaiting(KeyframeResult* result);
+  // Fuses keyframe `id` against `views` now (its points, confidence, map).
+  void fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResult* result);
+  // The most consistency views a keyframe is fused against.
+  size_t consistencyViewCap() const;
   // Marks stored keyframe `id` done without depth (a source only).
   void markSourceOnly(int64_t id, KeyframeResult* result);
   // Drops a keyframe that left the store from every list and cache (not the map).
@@ -336,6 +351,15 @@ class OnlineMapper {
   mutable size_t map_voxel_count_ = 0;
   uint64_t map_revision_ = 0;
   std::vector<int64_t> waiting_;  // estimated, not fused; oldest first
+  // Fused keyframes whose last fusion had fewer views than the confidence
+  // counts (calibration.max_views, at most the cap): how many, and how many
+  // more depth maps may still bring them more (fuseAgain).
+  struct Underfused {
+    size_t views = 0;
+    int rechecks_left = 0;
+  };
+  static constexpr int kUnderfusedRechecks = 8;
+  std::map<int64_t, Underfused> fused_with_fewer_views_;
   size_t evicted_before_fusion_ = 0;
   std::vector<int64_t> waiting_for_sources_;  // no source view yet; oldest first
   std::map<int64_t, EstimateRecord> estimates_;  // keyframes with a depth map
