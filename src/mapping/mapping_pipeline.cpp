@@ -517,17 +517,16 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
 
 void MappingPipeline::account(const PipelineOutput& output) {
   const KeyframeResult& result = output.result;
-  if (!result.has_depth && !result.fused_again) {
+  const bool source_only = !result.has_depth && !result.fused_again;  // a fusion again has no depth map either
+  if (source_only) {
     report(LogLevel::kInfo, "no_sources",
            keyframeName(result.id) + ": no source view yet (" + result.selection.reason +
                "): stored as a source; its depth map follows once later keyframes qualify");
   }
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  if (result.fused_again) {
-    // no depth map: only its fusion below
-  } else if (!result.has_depth) {
+  if (source_only) {
     ++stats_.keyframes_without_sources;
-  } else {
+  } else if (result.has_depth) {
     if (!result.refined) ++stats_.depth_maps;
     if (result.late) ++stats_.late_depth_maps;
     if (result.refined) ++stats_.refined_depth_maps;

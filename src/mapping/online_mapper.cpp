@@ -304,15 +304,18 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
   // next kUnderfusedRechecks depth maps only, so that keyframes which never
   // get more (a sparse stretch) cost nothing for the rest of the run.
   for (auto it = fused_with_fewer_views_.begin(); it != fused_with_fewer_views_.end();) {
+    it->second.views_checked = false;  // a new depth map may be a new view
     it = --it->second.rechecks_left <= 0 ? fused_with_fewer_views_.erase(it) : std::next(it);
   }
 }
 
 bool OnlineMapper::fuseAgain(KeyframeResult* result) {
   const Clock::time_point start = Clock::now();
-  for (const auto& [id, entry] : fused_with_fewer_views_) {
+  for (auto& [id, entry] : fused_with_fewer_views_) {
+    if (entry.views_checked) continue;  // nothing changed since (an idle pipeline asks again and again)
     if (std::find(waiting_.begin(), waiting_.end(), id) != waiting_.end()) continue;  // refined: waits anew
     std::vector<int64_t> views = consistencyViews(id);
+    entry.views_checked = true;
     if (views.size() <= entry.views) continue;
     *result = KeyframeResult();
     result->id = id;
@@ -488,6 +491,7 @@ bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_wor
   if (!problem.empty()) throw InputError("keyframe " + std::to_string(id) + ": " + problem);
   const bool stored = store_.contains(id);
   if (stored) store_.updatePose(id, camera_to_world);
+  for (auto& entry : fused_with_fewer_views_) entry.second.views_checked = false;  // views follow the poses
   finishMapWork();
   if (!map_.contains(id)) return stored;
   map_.updatePose(id, camera_to_world);

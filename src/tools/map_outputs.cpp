@@ -94,6 +94,19 @@ class JsonFields {
   std::string text_;
 };
 
+// "within_<t>cm_pct" for each of kMapThresholds, from the shares in `pct`.
+void addWithinFields(const std::vector<double>& pct, JsonFields* fields) {
+  for (size_t i = 0; i < kMapThresholds.size(); ++i)
+    fields->add("within_" + number(100 * kMapThresholds[i]) + "cm_pct", number(pct[i]));
+}
+
+// The points of every keyframe, in one vector.
+std::vector<Eigen::Vector3f> allPoints(const std::map<int64_t, std::vector<Eigen::Vector3f>>& per_keyframe) {
+  std::vector<Eigen::Vector3f> all;
+  for (const auto& entry : per_keyframe) all.insert(all.end(), entry.second.begin(), entry.second.end());
+  return all;
+}
+
 double median(std::vector<double> values) {
   if (values.empty()) return NAN;
   std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
@@ -486,8 +499,7 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   map.add("points", std::to_string(map_points.size()));
   map.add("voxel_size", number(options_.pipeline.mapper.map.leaf_size));
   if (!truth_points_.empty()) {
-    std::vector<Eigen::Vector3f> truth;
-    for (const auto& entry : truth_points_) truth.insert(truth.end(), entry.second.begin(), entry.second.end());
+    const std::vector<Eigen::Vector3f> truth = allPoints(truth_points_);
     const VoxelGridIndex index(truth, kMapThresholds.back());
     // Share of `points` within each threshold of the true surface.
     const auto withinPct = [&index](const std::vector<Eigen::Vector3f>& points) {
@@ -501,19 +513,15 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
       return pct;
     };
     map_within_pct = withinPct(map_points);
-    for (size_t i = 0; i < kMapThresholds.size(); ++i)
-      map.add("within_" + number(100 * kMapThresholds[i]) + "cm_pct", number(map_within_pct[i]));
+    addWithinFields(map_within_pct, &map);
     map.add("truth_points", std::to_string(truth.size()));
     map.add("truth_at", quoted(tracker_placed_truth_.empty() ? "recorded poses" : "true poses"));
     if (!tracker_placed_truth_.empty()) {
       // The same for the exact depth maps at the tracker's poses: the best a
       // map placed with those poses can do.
-      std::vector<Eigen::Vector3f> placed;
-      for (const auto& entry : tracker_placed_truth_) placed.insert(placed.end(), entry.second.begin(), entry.second.end());
-      bound_within_pct = withinPct(placed);
+      bound_within_pct = withinPct(allPoints(tracker_placed_truth_));
       JsonFields bound_fields;
-      for (size_t i = 0; i < kMapThresholds.size(); ++i)
-        bound_fields.add("within_" + number(100 * kMapThresholds[i]) + "cm_pct", number(bound_within_pct[i]));
+      addWithinFields(bound_within_pct, &bound_fields);
       map.add("exact_depth_at_tracker_poses", bound_fields.object());
     }
   }

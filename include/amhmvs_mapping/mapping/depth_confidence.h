@@ -41,10 +41,10 @@ struct ConfidenceOptions {
   // them, and with two views no evidence reaches 0.97, so they published
   // nothing) is fused and published again when more views see it, during
   // the next 8 depth maps, as idle work (OnlineMapper::fuseAgain: the
-  // pipeline runs it when no keyframe waits); its map points are replaced. Realism room (8 views, 320 px,
-  // --pose_refinement): published completeness 58.8 -> 73.7 % at 99.4 %
-  // within 5 %; redkitchen (60 frames): 23.5 -> 28.2 % at 90.6 -> 88.6 %
-  // within 10 % (README).
+  // pipeline runs it when no keyframe waits); its map points are replaced.
+  // Realism room (8 views, 320 px, --pose_refinement): published
+  // completeness 58.8 -> 73.7 % at 99.4 % within 5 %; redkitchen (60
+  // frames): 23.5 -> 28.2 % at 90.6 -> 88.6 % within 10 % (README).
   bool again_with_more_views = true;
 
   // Empty when valid; otherwise one line per problem.

@@ -357,6 +357,7 @@ class OnlineMapper {
   struct Underfused {
     size_t views = 0;
     int rechecks_left = 0;
+    bool views_checked = false;  // by fuseAgain since the last depth map or pose update
   };
   static constexpr int kUnderfusedRechecks = 8;
   std::map<int64_t, Underfused> fused_with_fewer_views_;
