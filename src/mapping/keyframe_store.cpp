@@ -144,6 +144,19 @@ std::vector<int64_t> KeyframeStore::add(Keyframe keyframe) {
   return evicted;
 }
 
+size_t KeyframeStore::bytesBeforePendingEvicted(const std::vector<int64_t>& spared) const {
+  size_t room = options_.max_bytes > bytes_ ? options_.max_bytes - bytes_ : 0;
+  for (const auto& [sequence, id] : order_) {
+    if (sequence == order_.rbegin()->first) continue;  // the newest is spared
+    const StoredKeyframe& stored = entries_.at(id).stored;
+    const auto refs = source_refs_.find(id);
+    const bool tier_one = stored.state == KeyframeState::kDone && (refs == source_refs_.end() || refs->second == 0);
+    if (tier_one && std::find(spared.begin(), spared.end(), id) == spared.end())
+      room += stored.bytes;
+  }
+  return room;
+}
+
 std::vector<int64_t> KeyframeStore::makeRoom(size_t extra_keyframes, size_t extra_bytes,
                                              int64_t keep_id) {
   const auto fits = [&](size_t count, size_t bytes) {

@@ -29,6 +29,7 @@ PipelineStats statsAfterReset(const PipelineStats& old) {
   fresh.late_estimate_failed = old.late_estimate_failed;
   fresh.refinement_estimate_failed = old.refinement_estimate_failed;
   fresh.fuse_again_failed = old.fuse_again_failed;
+  fresh.deferred_fusion_failed = old.deferred_fusion_failed;
   fresh.bad_pose_updates = old.bad_pose_updates;
   fresh.bad_reconfigurations = old.bad_reconfigurations;
   return fresh;
@@ -48,6 +49,7 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"late_estimate_failed", &PipelineStats::late_estimate_failed},
       {"refinement_estimate_failed", &PipelineStats::refinement_estimate_failed},
       {"fuse_again_failed", &PipelineStats::fuse_again_failed},
+      {"deferred_fusion_failed", &PipelineStats::deferred_fusion_failed},
       {"depth_maps", &PipelineStats::depth_maps},
       {"late_depth_maps", &PipelineStats::late_depth_maps},
       {"refined_depth_maps", &PipelineStats::refined_depth_maps},
@@ -194,7 +196,27 @@ void MappingPipeline::offerDeviceOutputs(const DepthMap& map) {
   // Fusion copies this map on the GPU instead of uploading it, when the GPU
   // estimator made it (not the CPU fallback).
   const DeviceDepthMap outputs = estimator_->lastDeviceOutputs();
-  fuser_->setDeviceSource(outputs.host_depth == map.depth.data.data() ? outputs : DeviceDepthMap());
+  std::lock_guard<std::mutex> lock(offer_mutex_);
+  offered_ = outputs.host_depth == map.depth.data.data() ? outputs : DeviceDepthMap();
+  offer_new_ = true;
+}
+
+void MappingPipeline::withdrawDeviceOffer() {
+  std::lock_guard<std::mutex> lock(offer_mutex_);
+  offered_ = DeviceDepthMap();
+  offer_new_ = true;
+}
+
+void MappingPipeline::takeDeviceOffer() {
+  std::lock_guard<std::mutex> lock(offer_mutex_);
+  if (!offer_new_) return;
+  fuser_->setDeviceSource(offered_);
+  offer_new_ = false;
+}
+
+bool MappingPipeline::fusionOverlaps() const {
+  return options_.fusion_overlap == FusionOverlap::kAlways ||
+         (options_.fusion_overlap == FusionOverlap::kGpu && backend_ == Backend::kCuda);
 }
 
 void MappingPipeline::trackDepthKey(int64_t id) {
@@ -211,6 +233,7 @@ void MappingPipeline::trackDepthKey(int64_t id) {
 FusionResult MappingPipeline::fuse(const std::vector<FusionView>& views, const FusionOptions& options) {
   if (fuser_) {
     try {
+      takeDeviceOffer();
       return fuser_->fuse(views, options);
     } catch (const BackendError& e) {
       noteFusionCpuFallback(std::string("fusion on the GPU failed (") + e.what() +
@@ -230,6 +253,7 @@ PublishedDepth MappingPipeline::publish(const FusionView& reference, const std::
                                        const ConfidenceOptions& options, const ConfidenceCalibration& calibration) {
   if (fuser_) {
     try {
+      takeDeviceOffer();
       return fuser_->publishDepth(reference, views, options, calibration);
     } catch (const BackendError& e) {
       noteFusionCpuFallback(std::string("confidence on the GPU failed (") + e.what() +
@@ -457,10 +481,11 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
   PipelineOutput output;
   output.result.id = id;
   const bool is_new = work == Work::kNewKeyframe;
-  const std::string what = work == Work::kNewKeyframe ? "keyframe"
-                           : work == Work::kLate      ? "late"
-                           : work == Work::kFuseAgain ? "fusion again"
-                                                      : "refinement";
+  const std::string what = work == Work::kNewKeyframe      ? "keyframe"
+                           : work == Work::kDeferredFusion ? "deferred fusion"
+                           : work == Work::kLate           ? "late"
+                           : work == Work::kFuseAgain      ? "fusion again"
+                                                           : "refinement";
   uint64_t PipelineStats::*failure = nullptr;
   std::string reason;
   try {
@@ -476,7 +501,7 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
     reason = e.what();
   }
   // The estimator's outputs change with its next estimate.
-  if (fuser_) fuser_->setDeviceSource(DeviceDepthMap());
+  withdrawDeviceOffer();
   // Also after a failure: the depth map may have been attached (and fused
   // on the GPU) before something else threw.
   trackDepthKey(output.result.id);
@@ -484,17 +509,19 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
     // A new keyframe is dropped; a late one stays a source only; a refined
     // one keeps its depth map.
     if (!failure)
-      failure = work == Work::kLate        ? &PipelineStats::late_estimate_failed
-                : work == Work::kFuseAgain ? &PipelineStats::fuse_again_failed
-                                           : &PipelineStats::refinement_estimate_failed;
+      failure = work == Work::kLate             ? &PipelineStats::late_estimate_failed
+                : work == Work::kFuseAgain      ? &PipelineStats::fuse_again_failed
+                : work == Work::kDeferredFusion ? &PipelineStats::deferred_fusion_failed
+                                                : &PipelineStats::refinement_estimate_failed;
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++(stats_.*failure);
     }
+    const bool fusion_only = work == Work::kFuseAgain || work == Work::kDeferredFusion;
     report(LogLevel::kError, what,
-           (is_new                        ? "dropped " + keyframeName(output.result.id)
-            : work == Work::kFuseAgain ? what + " of " + keyframeName(output.result.id) + " failed"
-                                          : what + " depth map of " + keyframeName(output.result.id) + " failed") +
+           (is_new        ? "dropped " + keyframeName(output.result.id)
+            : fusion_only ? what + " of " + keyframeName(output.result.id) + " failed"
+                          : what + " depth map of " + keyframeName(output.result.id) + " failed") +
                ": " + reason);
     return true;  // work was attempted
   }
@@ -517,7 +544,8 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
 
 void MappingPipeline::account(const PipelineOutput& output) {
   const KeyframeResult& result = output.result;
-  const bool source_only = !result.has_depth && !result.fused_again;  // a fusion again has no depth map either
+  // Fusions (again, or deferred) have no depth map either.
+  const bool source_only = !result.has_depth && !result.fused_again && !result.deferred_fusion;
   if (source_only) {
     report(LogLevel::kInfo, "no_sources",
            keyframeName(result.id) + ": no source view yet (" + result.selection.reason +
@@ -557,26 +585,33 @@ std::vector<PipelineOutput> MappingPipeline::step() {
       report(LogLevel::kError, "keyframe", "skipped " + keyframeName(id) + " not kept as a source: " + e.what());
     }
   }
+  const auto queueEmpty = [this] {
+    std::lock_guard<std::mutex> queue_lock(queue_mutex_);
+    return queue_.empty();
+  };
   if (have_keyframe) {
     const double wait_ms = 1000 * (steadySeconds() - next.pushed_at);
     const int64_t id = next.keyframe.id;
+    // The next keyframe waits already: this one is fused during its estimate.
+    const bool next_follows = fusionOverlaps() && !queueEmpty();
     worked |= run(Work::kNewKeyframe, id,
                   [&](KeyframeResult* result) {
-                    *result = mapper_->process(std::move(next.keyframe));
+                    *result = mapper_->process(std::move(next.keyframe), next_follows);
                     return true;
                   },
                   &outputs, wait_ms);
+  }
+  bool queue_empty = queueEmpty();
+  if (queue_empty && mapper_->fusionDeferred()) {
+    worked |= run(Work::kDeferredFusion, -1, [&](KeyframeResult* result) { return mapper_->fuseDeferred(result); },
+                  &outputs, 0);
   }
   // At most one late depth map per step; refinements only when no keyframe
   // waits and nothing else was late: new keyframes keep their rate.
   bool late_work = false;
   if (options_.late_depth_maps)
     late_work = run(Work::kLate, -1, [&](KeyframeResult* result) { return mapper_->estimateLate(result); }, &outputs, 0);
-  bool queue_empty;
-  {
-    std::lock_guard<std::mutex> queue_lock(queue_mutex_);
-    queue_empty = queue_.empty();
-  }
+  queue_empty = queueEmpty();
   if (!late_work && queue_empty)
     late_work = run(Work::kFuseAgain, -1, [&](KeyframeResult* result) { return mapper_->fuseAgain(result); }, &outputs, 0);
   if (!late_work && queue_empty)
@@ -586,12 +621,7 @@ std::vector<PipelineOutput> MappingPipeline::step() {
   // The map update of this step's fusion runs in the background while the
   // next keyframe is estimated; with no keyframe waiting it is finished now,
   // so that an idle pipeline's map and statistics are complete.
-  bool keyframe_waits;
-  {
-    std::lock_guard<std::mutex> queue_lock(queue_mutex_);
-    keyframe_waits = !queue_.empty();
-  }
-  if (!keyframe_waits) {
+  if (queueEmpty()) {
     try {
       mapper_->finishMapWork();
     } catch (const std::exception& e) {

@@ -103,12 +103,13 @@ OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction 
   if (options.pose_refinement.enabled) pose_refiner_.reset(new PoseRefiner(options.pose_refinement));
 }
 
-KeyframeResult OnlineMapper::process(Keyframe keyframe) {
+KeyframeResult OnlineMapper::process(Keyframe keyframe, bool next_follows) {
   const Clock::time_point start = Clock::now();
   KeyframeResult result;
   result.id = keyframe.id;
   result.camera = keyframe.camera;
   noteEvicted(store_.add(std::move(keyframe)), &result);
+  handOutUndelivered(&result);
   result.times.store_ms = millisecondsSince(start);
   const int64_t id = result.id;
   const Clock::time_point selection_start = Clock::now();
@@ -118,17 +119,19 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe) {
   if (result.selection.source_ids.empty()) {
     markSourceOnly(id, &result);
     if (store_.contains(id)) waiting_for_sources_.push_back(id);
+    runDeferredFusion(&result);  // no estimate to overlap
     result.waiting_for_fusion = waiting_.size();
     result.times.total_ms = millisecondsSince(start);
     return result;
   }
   store_.setSources(id, result.selection.source_ids);
   try {
-    estimateAndFuse(id, &result);
+    estimateAndFuse(id, next_follows, &result);
   } catch (...) {
     // Dropped: nothing may name it again (a refinement would look it up).
     store_.remove(id);
     forgetKeyframe(id);
+    keepUndelivered(&result);
     throw;
   }
   result.times.total_ms = millisecondsSince(start);
@@ -152,11 +155,60 @@ std::vector<int64_t> OnlineMapper::addSourceView(Keyframe keyframe) {
   return result.evicted;
 }
 
+bool OnlineMapper::fuseDeferred(KeyframeResult* result) {
+  if (!fusionDeferred()) return false;
+  const Clock::time_point start = Clock::now();
+  *result = KeyframeResult();
+  result->id = deferred_id_;
+  result->deferred_fusion = true;
+  result->camera = store_.contains(deferred_id_) ? store_.keyframe(deferred_id_).camera : PinholeCamera();
+  runDeferredFusion(result);
+  result->waiting_for_fusion = waiting_.size();
+  result->times.total_ms = millisecondsSince(start);
+  return true;
+}
+
+void OnlineMapper::handOutUndelivered(KeyframeResult* result) {
+  for (FusedKeyframe& fused : undelivered_.fused) result->fused.push_back(std::move(fused));
+  const auto append = [](const std::vector<int64_t>& ids, std::vector<int64_t>* to) {
+    to->insert(to->end(), ids.begin(), ids.end());
+  };
+  append(undelivered_.evicted, &result->evicted);
+  append(undelivered_.evicted_before_fusion, &result->evicted_before_fusion);
+  undelivered_ = KeyframeResult();
+}
+
+void OnlineMapper::keepUndelivered(KeyframeResult* result) {
+  // A call that throws hands out nothing: what it fused or evicted before
+  // comes with the next result.
+  undelivered_.fused = std::move(result->fused);
+  undelivered_.evicted = std::move(result->evicted);
+  undelivered_.evicted_before_fusion = std::move(result->evicted_before_fusion);
+}
+
+void OnlineMapper::runDeferredFusion(KeyframeResult* result) {
+  handOutUndelivered(result);
+  if (!fusion_deferred_) return;
+  fusion_deferred_ = false;
+  fuseWaiting(result);
+}
+
+void OnlineMapper::fuseDeferredNow() {
+  if (!fusion_deferred_) return;
+  fusion_deferred_ = false;
+  fuseWaiting(&undelivered_);
+}
+
 bool OnlineMapper::estimateLate(KeyframeResult* result) {
   const Clock::time_point start = Clock::now();
   for (const int64_t id : waiting_for_sources_) {
     SourceSelection selection = selectSources(store_, id, options_.sources);
     if (selection.source_ids.empty()) continue;
+    if (fusion_deferred_) {
+      // First: it may evict what this estimate would read; then choose again.
+      fuseDeferredNow();
+      return estimateLate(result) || fuseDeferred(result);
+    }
     waiting_for_sources_.erase(std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id));
     estimateStored(id, std::move(selection), /*late=*/true, start, result);
     return true;
@@ -165,7 +217,8 @@ bool OnlineMapper::estimateLate(KeyframeResult* result) {
 }
 
 bool OnlineMapper::refine(KeyframeResult* result) {
-  if (options_.refinement.max_refinements == 0) return false;
+  fuseDeferredNow();  // first: it may evict what a refinement would read
+  if (options_.refinement.max_refinements == 0) return fuseDeferred(result);
   const Clock::time_point start = Clock::now();
   for (auto& [id, record] : estimates_) {
     if (record.refinements >= options_.refinement.max_refinements) continue;
@@ -178,7 +231,7 @@ bool OnlineMapper::refine(KeyframeResult* result) {
     estimateStored(id, std::move(selection), /*late=*/false, start, result);
     return true;
   }
-  return false;
+  return fuseDeferred(result);  // a deferred fusion's outcome, if any
 }
 
 void OnlineMapper::estimateStored(int64_t id, SourceSelection selection, bool late, Clock::time_point start,
@@ -190,13 +243,20 @@ void OnlineMapper::estimateStored(int64_t id, SourceSelection selection, bool la
   result->refined = !late;
   result->camera = store_.keyframe(id).camera;
   result->selection = std::move(selection);
+  handOutUndelivered(result);
   // Done already (a depth map, or none as a source only): nothing is pending,
-  // so the sources need no protection from eviction during the estimate.
-  estimateAndFuse(id, result);
+  // so the sources need no protection from eviction during the estimate (no
+  // fusion is deferred: the callers ran it first).
+  try {
+    estimateAndFuse(id, /*defer_fusion=*/false, result);
+  } catch (...) {
+    keepUndelivered(result);
+    throw;
+  }
   result->times.total_ms = millisecondsSince(start);
 }
 
-void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
+void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult* result) {
   const std::vector<int64_t>& sources = result->selection.source_ids;
   Clock::time_point start = Clock::now();
   result->depth_range = estimateDepthRange(store_, id, sources, options_.depth_range);
@@ -228,7 +288,7 @@ void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
     recordRefinedPoses(id, problem, result->pose_refinement);
   }
   start = Clock::now();
-  result->depth = estimate_(problem);
+  result->depth = estimateWhileFusing(problem, result);
   result->times.estimate_ms = millisecondsSince(start);
   result->has_depth = true;
   if (result->refined && options_.refinement.keep_only_better) {
@@ -252,8 +312,39 @@ void OnlineMapper::estimateAndFuse(int64_t id, KeyframeResult* result) {
   // A keyframe with a depth map waits for fusion (a refined one again); this
   // depth map may also complete earlier waiting keyframes.
   if (std::find(waiting_.begin(), waiting_.end(), id) == waiting_.end()) waiting_.push_back(id);
-  fuseWaiting(result);
+  if (defer_fusion) {
+    fusion_deferred_ = true;  // during the next keyframe's estimate
+    deferred_id_ = id;
+  } else {
+    fuseWaiting(result);
+  }
   result->waiting_for_fusion = waiting_.size();
+}
+
+DepthMap OnlineMapper::estimateWhileFusing(const DepthProblem& problem, KeyframeResult* result) {
+  if (!fusion_deferred_) return estimate_(problem);
+  fusion_deferred_ = false;
+  // Fusion attaches points to the waiting keyframes; the store makes room by
+  // evicting, and must not reach the images this estimate reads.
+  size_t most_point_bytes = 0;
+  for (int64_t waiting : waiting_) {
+    const PinholeCamera& camera = store_.keyframe(waiting).camera;
+    most_point_bytes += static_cast<size_t>(camera.width) * camera.height * sizeof(KeyframePoint);
+  }
+  if (store_.bytesBeforePendingEvicted(waiting_) < most_point_bytes) {
+    fuseWaiting(result);
+    return estimate_(problem);
+  }
+  if (!estimate_worker_) estimate_worker_.reset(new SerialWorker());
+  std::future<DepthMap> estimate =
+      estimate_worker_->submit(std::function<DepthMap()>([this, &problem] { return estimate_(problem); }));
+  try {
+    fuseWaiting(result);
+  } catch (...) {
+    estimate.wait();  // it borrows the problem's images
+    throw;
+  }
+  return estimate.get();
 }
 
 OnlineMapper::Forgotten OnlineMapper::forgetKeyframe(int64_t id) {
@@ -310,6 +401,7 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
 }
 
 bool OnlineMapper::fuseAgain(KeyframeResult* result) {
+  if (fusionDeferred()) return fuseDeferred(result);  // newer work first
   const Clock::time_point start = Clock::now();
   for (auto& [id, entry] : fused_with_fewer_views_) {
     if (entry.views_checked) continue;  // nothing changed since (an idle pipeline asks again and again)
@@ -507,6 +599,8 @@ void OnlineMapper::reset() {
   waiting_for_sources_.clear();
   evicted_without_depth_ = 0;
   estimates_.clear();
+  fusion_deferred_ = false;
+  undelivered_ = KeyframeResult();
   if (pose_refiner_) pose_refiner_->forgetAll();
   refined_poses_.clear();
   try {

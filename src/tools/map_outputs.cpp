@@ -71,6 +71,7 @@ std::string id6(int64_t id) {
 
 const char* kindOf(const KeyframeResult& result) {
   if (result.fused_again) return "fused_again";
+  if (result.deferred_fusion) return "deferred_fusion";
   if (!result.has_depth) return "source_only";
   if (result.refined) return "refined";
   return result.late ? "late" : "new";
@@ -433,7 +434,7 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   summary.add("keyframes_refused", refused.object());
   summary.add("keyframes_pushed", std::to_string(totals.keyframes_pushed));
   JsonFields kinds;
-  for (const char* kind : {"new", "late", "refined", "source_only", "fused_again"}) {
+  for (const char* kind : {"new", "late", "refined", "source_only", "fused_again", "deferred_fusion"}) {
     kinds.add(kind, std::to_string(kinds_.count(kind) ? kinds_.at(kind) : 0));
   }
   summary.add("results", kinds.object());

@@ -223,6 +223,27 @@ TEST(KeyframeStore, EvictsByDocumentedPolicy) {
   EXPECT_INPUT_ERROR(store.keyframe(2), "keyframe 2", "unknown id");
 }
 
+TEST(KeyframeStore, RoomBeforePendingWorkIsEvictedCountsFreeBytesAndTierOneOnly) {
+  KeyframeStoreOptions options;
+  options.max_bytes = 10 * kImageBytes + 4 * kDepthBytes;
+  KeyframeStore store(options);
+  for (int64_t id = 1; id <= 5; ++id) store.add(makeKeyframe(id));
+  store.attachDepth(1, makeDepth());
+  store.attachDepth(2, makeDepth());
+  store.attachDepth(3, makeDepth());
+  store.setSources(5, {2});  // 2 is a source of pending 5: tier 2
+  const size_t free_bytes = options.max_bytes - store.bytes();
+  const size_t done_bytes = kImageBytes + kDepthBytes;
+  // Tier 1: 1 and 3 (done, no source); not 2 (tier 2), 4 (pending) or 5 (the newest).
+  EXPECT_EQ(store.bytesBeforePendingEvicted({}), free_bytes + 2 * done_bytes);
+  // Keyframes about to be given attachments are spared.
+  EXPECT_EQ(store.bytesBeforePendingEvicted({3}), free_bytes + done_bytes);
+  // Points for 3 that take that room evict tier 1 only (1; 3 is spared as the one attached to).
+  EXPECT_EQ(store.attachPoints(3, KeyframePoints((free_bytes + done_bytes) / sizeof(KeyframePoint))),
+            std::vector<int64_t>{1});
+  EXPECT_TRUE(store.contains(2) && store.contains(5));
+}
+
 TEST(KeyframeStore, ByteBudgetNeverExceededAndNewestKept) {
   KeyframeStoreOptions options;
   options.max_bytes = 3 * kImageBytes + kDepthBytes - 1;

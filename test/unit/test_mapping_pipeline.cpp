@@ -47,7 +47,11 @@ std::vector<std::string> describe(const std::vector<PipelineOutput>& outputs) {
   std::vector<std::string> out;
   for (const PipelineOutput& output : outputs) {
     const KeyframeResult& r = output.result;
-    out.push_back(std::string(r.late ? "late " : r.refined ? "refined " : r.fused_again ? "again " : "new ") +
+    out.push_back(std::string(r.late              ? "late "
+                              : r.refined         ? "refined "
+                              : r.fused_again     ? "again "
+                              : r.deferred_fusion ? "deferred "
+                                                  : "new ") +
                   std::to_string(r.id));
   }
   return out;
@@ -164,6 +168,75 @@ TEST(MappingPipeline, SchedulesNewKeyframesFirstThenLateDepthMapsThenRefinements
   EXPECT_EQ(stats.stored_keyframes, 3u);
   EXPECT_GT(stats.map_voxels, 0u);
   EXPECT_EQ(stats.droppedTotal(), 0u);
+}
+
+// With the overlap (kAlways: these tests have no GPU), a keyframe followed by
+// another in the queue is fused during the next estimate: the same keyframes
+// are fused into the same map, one step later.
+TEST(MappingPipeline, FusionDuringTheNextEstimateFusesTheSameKeyframesOneStepLater) {
+  PipelineOptions options = wallPipeline();
+  options.fusion_overlap = FusionOverlap::kOff;
+  WallPipeline at_once(options);
+  options.fusion_overlap = FusionOverlap::kAlways;
+  WallPipeline overlapped(options);
+  std::vector<std::vector<int64_t>> fused_at_once, fused_overlapped;
+  const auto record = [](std::vector<std::vector<int64_t>>* steps) {
+    return [steps](const PipelineOutput& output) {
+      std::vector<int64_t> ids;
+      for (const FusedKeyframe& fused : output.result.fused) ids.push_back(fused.id);
+      steps->push_back(ids);
+    };
+  };
+  const std::vector<std::string> order_at_once = stepSixQueuedKeyframes(&at_once.pipeline, record(&fused_at_once));
+  EXPECT_EQ(stepSixQueuedKeyframes(&overlapped.pipeline, record(&fused_overlapped)), order_at_once);
+  // Outputs: new 0, new 1, late 0 (its late estimate ran keyframe 1's
+  // deferred fusion first: nothing to fuse yet), new 2 .. new 5, then the
+  // idle work. Keyframe 2's depth map completes 1, 0 and 2; overlapped they
+  // come with keyframe 3, whose own fusion comes with 4, and so on; keyframe
+  // 5 has no follower and is fused at once, after 4.
+  ASSERT_EQ(order_at_once.size(), fused_at_once.size());
+  ASSERT_EQ(fused_overlapped.size(), fused_at_once.size());
+  ASSERT_GT(order_at_once.size(), 7u);
+  EXPECT_EQ(order_at_once[3], "new 2");
+  EXPECT_EQ(order_at_once[6], "new 5");
+  EXPECT_EQ(fused_at_once[3], (std::vector<int64_t>{1, 0, 2}));
+  EXPECT_TRUE(fused_overlapped[3].empty());
+  EXPECT_EQ(fused_overlapped[4], fused_at_once[3]);
+  EXPECT_EQ(fused_overlapped[5], fused_at_once[4]);
+  EXPECT_EQ(fused_overlapped[6], (std::vector<int64_t>{4, 5}));
+  for (size_t i = 7; i < order_at_once.size(); ++i) EXPECT_EQ(fused_overlapped[i], fused_at_once[i]) << i;
+  const PipelineStats a = at_once.pipeline.stats(), b = overlapped.pipeline.stats();
+  EXPECT_EQ(b.keyframes_fused, a.keyframes_fused);
+  EXPECT_EQ(b.depth_maps, a.depth_maps);
+  EXPECT_EQ(b.map_points_added, a.map_points_added);
+  EXPECT_EQ(b.map_voxels, a.map_voxels);
+  EXPECT_EQ(b.keyframes_waiting_for_fusion, 0u);
+  EXPECT_TRUE(b.idle);
+}
+
+// The keyframe that would have carried a deferred fusion is dropped: with
+// the queue empty, the fusion runs alone (nothing is lost).
+TEST(MappingPipeline, DeferredFusionWhoseNextKeyframeIsDroppedRunsAlone) {
+  PipelineOptions options = wallPipeline();
+  options.fusion_overlap = FusionOverlap::kAlways;
+  WallPipeline wall(options);
+  for (int i = 0; i < 4; ++i) wall.pipeline.push(keyframeAt(i, 0.25 * i));
+  Keyframe bad = keyframeAt(4, 1.0);
+  bad.camera.fx = -1;
+  wall.pipeline.push(std::move(bad));
+  std::vector<PipelineOutput> deferred;
+  wall.pipeline.runUntilIdle([&](const PipelineOutput& output) {
+    if (output.result.deferred_fusion) deferred.push_back(output);
+  });
+  ASSERT_EQ(deferred.size(), 1u);
+  EXPECT_EQ(deferred[0].result.id, 3);
+  ASSERT_FALSE(deferred[0].result.fused.empty());
+  EXPECT_EQ(deferred[0].result.fused.back().id, 3);
+  const PipelineStats stats = wall.pipeline.stats();
+  EXPECT_EQ(stats.dropped_invalid, 1u);
+  EXPECT_EQ(stats.keyframes_fused, 4u);  // 0 (late), 1, 2, 3
+  EXPECT_EQ(stats.keyframes_without_sources, 1u);  // only keyframe 0: the fusion alone is not one
+  EXPECT_EQ(stats.keyframes_waiting_for_fusion, 0u);
 }
 
 TEST(MappingPipeline, RefinementWaitsWhileKeyframesAreQueued) {

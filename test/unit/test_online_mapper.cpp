@@ -4,8 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <limits>
+#include <mutex>
 #include <map>
 #include <set>
 #include <stdexcept>
@@ -632,6 +635,143 @@ TEST(OnlineMapper, KeyframeDroppedByAFailedFusionIsNeverLookedUpAgain) {
   }
   EXPECT_FALSE(mapper.refine(&result));
   EXPECT_FALSE(mapper.map().contains(2));
+}
+
+// A handshake between the estimate (on the mapper's worker thread) and the
+// fusion (on the caller's): in a round the test opens, the first fusion waits
+// until an estimate is running and that estimate waits until the fusion has
+// seen it, so an overlap is proven, not hoped for. Without one, each wait
+// ends after 10 s and counts as a miss (the test fails instead of hanging).
+struct OverlapProbe {
+  std::mutex mutex;
+  std::condition_variable changed;
+  bool round_open = false, estimating = false, fusion_seen = false;
+  int fusions_during_estimates = 0, misses = 0;
+
+  void openRound() {
+    std::lock_guard<std::mutex> lock(mutex);
+    round_open = true;
+  }
+  EstimateFunction estimate() {
+    return [this](const DepthProblem& problem) {
+      std::unique_lock<std::mutex> lock(mutex);
+      estimating = true;
+      changed.notify_all();
+      if (round_open && !changed.wait_for(lock, std::chrono::seconds(10), [this] { return fusion_seen; })) ++misses;
+      estimating = false;
+      fusion_seen = false;
+      return wallDepth(problem);
+    };
+  }
+  FuseFunction fuse() {
+    return [this](const std::vector<FusionView>& views, const FusionOptions& options) {
+      {
+        std::unique_lock<std::mutex> lock(mutex);
+        if (round_open) {
+          if (changed.wait_for(lock, std::chrono::seconds(10), [this] { return estimating; })) {
+            ++fusions_during_estimates;
+            fusion_seen = true;
+          } else {
+            ++misses;
+          }
+          round_open = false;
+          changed.notify_all();
+        }
+      }
+      return fuseDepthMaps(views, options);
+    };
+  }
+};
+
+// Fused points (position, confidence) of every keyframe that `results` fused (the last fusion of each).
+std::map<int64_t, std::vector<float>> fusedCoordinates(const std::vector<KeyframeResult>& results) {
+  std::map<int64_t, std::vector<float>> points;
+  for (const KeyframeResult& result : results)
+    for (const FusedKeyframe& fused : result.fused) {
+      std::vector<float>& xyz = points[fused.id];
+      xyz.clear();
+      for (const KeyframePoint& point : *fused.points)
+        xyz.insert(xyz.end(), {point.position.x(), point.position.y(), point.position.z(), point.confidence});
+    }
+  return points;
+}
+
+TEST(OnlineMapper, FusionDeferredToTheNextKeyframeRunsDuringItsEstimateWithTheSameResult) {
+  OnlineMapper at_once(wallOptions(), wallDepth);
+  std::vector<KeyframeResult> expected;
+  for (int i = 0; i < 8; ++i) expected.push_back(at_once.process(keyframeAt(i, 0.25 * i)));
+
+  OverlapProbe probe;
+  OnlineMapper overlapped(wallOptions(), probe.estimate(), probe.fuse());
+  std::vector<KeyframeResult> results;
+  for (int i = 0; i < 8; ++i) {
+    // Keyframes 1-3 are fused once keyframe 3 has a depth map: from keyframe
+    // 4 on, each estimate runs while the keyframe before it is fused.
+    if (i >= 4) probe.openRound();
+    const bool next_follows = i < 7;
+    results.push_back(overlapped.process(keyframeAt(i, 0.25 * i), next_follows));
+    EXPECT_EQ(overlapped.fusionDeferred(), next_follows && results.back().has_depth) << i;
+  }
+  EXPECT_EQ(probe.fusions_during_estimates, 4);
+  EXPECT_EQ(probe.misses, 0);
+  // Keyframe 3's result fuses nothing: 1, 2 and 3 come with 4's; the last,
+  // which no keyframe follows, is fused at once after the one before it.
+  EXPECT_EQ(fusedIds(expected[3]), (std::vector<int64_t>{1, 2, 3}));
+  EXPECT_TRUE(results[3].fused.empty());
+  EXPECT_EQ(fusedIds(results[4]), (std::vector<int64_t>{1, 2, 3}));
+  EXPECT_FALSE(results[4].fused_now);
+  EXPECT_EQ(fusedIds(results[7]), (std::vector<int64_t>{6, 7}));
+  EXPECT_TRUE(results[7].fused_now);
+  // The same points and map as fusing each keyframe at once.
+  EXPECT_EQ(fusedCoordinates(results), fusedCoordinates(expected));
+  EXPECT_FALSE(fusedCoordinates(results).empty());
+  EXPECT_EQ(overlapped.map().voxelCount(), at_once.map().voxelCount());
+  EXPECT_FALSE(overlapped.fusionDeferred());
+}
+
+TEST(OnlineMapper, DeferredFusionRunsAloneWhenNoKeyframeFollowsAndNotAfterAReset) {
+  OnlineMapper mapper(wallOptions(), wallDepth);
+  for (int i = 0; i < 5; ++i) mapper.process(keyframeAt(i, 0.25 * i), /*next_follows=*/true);
+  ASSERT_TRUE(mapper.fusionDeferred());
+  EXPECT_EQ(mapper.waitingForFusion(), std::vector<int64_t>{4});
+  // Fusion again runs it as its work (newer work first).
+  KeyframeResult result;
+  ASSERT_TRUE(mapper.fuseAgain(&result));
+  EXPECT_TRUE(result.deferred_fusion);
+  EXPECT_FALSE(result.has_depth);
+  EXPECT_EQ(result.id, 4);
+  EXPECT_EQ(fusedIds(result), std::vector<int64_t>{4});
+  EXPECT_FALSE(mapper.fusionDeferred());
+  EXPECT_FALSE(mapper.fuseDeferred(&result));
+
+  mapper.process(keyframeAt(5, 1.25), /*next_follows=*/true);
+  ASSERT_TRUE(mapper.fuseDeferred(&result));
+  EXPECT_EQ(fusedIds(result), std::vector<int64_t>{5});
+  EXPECT_TRUE(mapper.map().contains(5));
+
+  mapper.process(keyframeAt(6, 1.5), /*next_follows=*/true);
+  mapper.reset();
+  EXPECT_FALSE(mapper.fusionDeferred());
+  EXPECT_FALSE(mapper.fuseDeferred(&result));
+}
+
+// A deferred fusion that ran during an estimate which then failed: its fused
+// keyframes come with the next result instead of being lost.
+TEST(OnlineMapper, FusionDoneDuringAFailedEstimateIsHandedOutWithTheNextResult) {
+  bool fail = false;
+  OnlineMapper mapper(wallOptions(), [&](const DepthProblem& problem) {
+    if (fail) throw BackendError("injected: device lost");
+    return wallDepth(problem);
+  });
+  for (int i = 0; i < 5; ++i) mapper.process(keyframeAt(i, 0.25 * i), /*next_follows=*/true);
+  fail = true;
+  EXPECT_THROW(mapper.process(keyframeAt(5, 1.25), /*next_follows=*/true), BackendError);
+  fail = false;
+  EXPECT_TRUE(mapper.fusionDeferred());  // undelivered
+  EXPECT_TRUE(mapper.waitingForFusion().empty());
+  const KeyframeResult next = mapper.process(keyframeAt(6, 1.5));
+  EXPECT_EQ(fusedIds(next), (std::vector<int64_t>{4, 6}));
+  EXPECT_FALSE(mapper.fusionDeferred());
 }
 
 TEST(OnlineMapper, ResetAndVoxelSizeChange) {

@@ -139,6 +139,11 @@ class KeyframeStore {
 
   std::vector<int64_t> ids() const;         // oldest first
   std::vector<int64_t> pendingIds() const;  // oldest first
+  // Bytes that attachments may add before an eviction would reach tier 2 or
+  // 3 (a pending keyframe or one of its sources): the free budget plus the
+  // tier-1 keyframes, without the newest and `spared` (keyframes about to be
+  // given attachments, which are never evicted for their own).
+  size_t bytesBeforePendingEvicted(const std::vector<int64_t>& spared) const;
   size_t size() const { return entries_.size(); }
   size_t bytes() const { return bytes_; }
   size_t evictedCount() const { return evicted_count_; }

@@ -29,7 +29,11 @@
 // offline tool until idle()):
 //   1. pending work from other threads: options, reset, pose updates;
 //   2. the oldest queued keyframe, if any (OnlineMapper::process); the
-//      newest after an overflow (skip_to_newest);
+//      newest after an overflow (skip_to_newest). When another keyframe
+//      waits behind it (and options.fusion_overlap allows), its fusion is
+//      deferred to the next step and runs during that keyframe's estimate;
+//      a deferred fusion whose next keyframe did not come (a reset, a
+//      dropped keyframe) runs alone when the queue is empty;
 //   3. one late depth map (a keyframe that had no source when it arrived and
 //      has one now);
 //   4. only when the queue is empty and 3 did nothing: one keyframe fused
@@ -58,6 +62,13 @@
 
 namespace amhmvs {
 
+// When a keyframe's fusion waits for the next keyframe's estimate and runs
+// during it (OnlineMapper::process(..., next_follows)): only with a GPU
+// estimator by default (the CPU gains nothing, its cores are the
+// estimator's, and a deferred keyframe would be published one estimate
+// later, seconds on the CPU).
+enum class FusionOverlap { kOff, kGpu, kAlways };
+
 struct PipelineOptions {
   OnlineMapperOptions mapper;
   // The paper's defaults. On the CPU, real video gains from the coarse-to-fine
@@ -72,6 +83,10 @@ struct PipelineOptions {
   bool skip_to_newest = true;            // after an overflow take the newest keyframe, drop the older queued ones
   int switch_to_cpu_after = 3;           // GPU failures in a row before every keyframe runs on the CPU
   bool late_depth_maps = true;           // step 3 of the scheduling
+  // A keyframe followed by another in the queue is fused while the next
+  // estimate runs (on the GPU they overlap: H100, 8 sources, 640x480: see
+  // README "Speed"); its outputs come with the next step's.
+  FusionOverlap fusion_overlap = FusionOverlap::kGpu;
   double report_period_s = 5.0;          // seconds between log lines of one kind of drop
 
   // Empty when valid; otherwise one line per problem, prefixed by the group.
@@ -96,6 +111,7 @@ struct PipelineStats {
   uint64_t late_estimate_failed = 0;
   uint64_t refinement_estimate_failed = 0;
   uint64_t fuse_again_failed = 0;      // fusions of an earlier keyframe with more views that threw
+  uint64_t deferred_fusion_failed = 0;  // deferred fusions run alone (their next keyframe did not come) that threw
   // Work done.
   uint64_t depth_maps = 0;             // first depth maps (late ones included)
   uint64_t late_depth_maps = 0;
@@ -212,8 +228,9 @@ class MappingPipeline {
   };
   void init(EstimateFunction primary, EstimateFunction fallback, const std::string& backend_name);
   void applyPending();
-  // The three kinds of work of a step (what a failure of each counts as).
-  enum class Work { kNewKeyframe, kLate, kFuseAgain, kRefinement };
+  // The kinds of work of a step (what a failure of each counts as).
+  enum class Work { kNewKeyframe, kDeferredFusion, kLate, kFuseAgain, kRefinement };
+  bool fusionOverlaps() const;
   // Runs one mapper call with error handling: false when it had nothing to
   // do, true when it worked or threw (counted and logged).
   bool run(Work work, int64_t id, const std::function<bool(KeyframeResult*)>& call,
@@ -230,9 +247,14 @@ class MappingPipeline {
   // After a mapper call for keyframe `id`: records the fuser key of its depth
   // map; the key of a map it replaced is forgotten.
   void trackDepthKey(int64_t id);
-  // After an estimate: offers the GPU estimator's outputs to the fuser when
-  // `map` is that estimate's (not the CPU fallback's).
+  // After an estimate (on the estimate's thread): offers the GPU
+  // estimator's outputs to the fuser when `map` is that estimate's (not the
+  // CPU fallback's); the fuser takes the offer before its next call, on the
+  // worker's thread (takeDeviceOffer), so that an estimate on another
+  // thread never changes the fuser during a fusion.
   void offerDeviceOutputs(const DepthMap& map);
+  void withdrawDeviceOffer();
+  void takeDeviceOffer();
   void report(LogLevel level, const std::string& kind, const std::string& line);
   // Why the input outruns the estimator, measured (keyframe interval, time
   // per keyframe), and what to change: the end of the overload log lines.
@@ -248,6 +270,9 @@ class MappingPipeline {
   std::unique_ptr<DepthEstimator> estimator_, cpu_estimator_;
   std::unique_ptr<FallbackEstimator> fallback_;
   std::unique_ptr<DepthMapFuser> fuser_;  // fusion on the GPU when the estimator runs there
+  std::mutex offer_mutex_;
+  DeviceDepthMap offered_;                // the last estimate's device outputs (or none)
+  bool offer_new_ = false;                // not yet handed to the fuser
   // Keyframe id -> the fuser key of its depth map (FusionView::key, which is
   // not the keyframe id): a replaced (refined) map or an evicted keyframe's
   // leaves the device at once.

@@ -182,6 +182,7 @@ struct KeyframeResult {
   bool late = false;             // from estimateLate(): a keyframe that arrived earlier
   bool refined = false;          // from refine(): a new depth map of an earlier keyframe
   bool fused_again = false;      // from fuseAgain(): an earlier keyframe fused again, no new depth map
+  bool deferred_fusion = false;  // from fuseDeferred(): earlier depth maps fused, no new depth map
   // refine(): the new depth map was worse by the estimator's evidence and was
   // dropped; the keyframe keeps its depth map and points (`depth` is the
   // dropped one, nothing was fused). refinement_evidence says why.
@@ -219,7 +220,27 @@ class OnlineMapper {
   // Runs steps 1-6 for a keyframe. Throws InputError for an invalid keyframe
   // (nothing changes); an exception of the estimate function propagates after
   // the keyframe was removed from the store again.
-  KeyframeResult process(Keyframe keyframe);
+  //
+  // next_follows: the caller will process another keyframe at once (its
+  // queue holds one). Step 5 for this depth map then waits for that call,
+  // which runs it on this thread while its own estimate runs on a worker
+  // thread: with a GPU estimator the fusion of keyframe k (its checks,
+  // confidence, downloads and map update) overlaps the estimate of k + 1.
+  // The results are those of fusing at once (the next keyframe's problem
+  // reads depth maps, not fusion), delivered in the next call's `fused`.
+  // A deferred fusion runs at once instead when it could evict the next
+  // keyframe's source images from the store (a full store of pending work)
+  // and before any other call that estimates; fuseDeferred() runs it
+  // alone (when the next keyframe did not come after all).
+  KeyframeResult process(Keyframe keyframe, bool next_follows = false);
+
+  // Runs a fusion that process(..., next_follows = true) deferred
+  // (result->deferred_fusion; no new depth map). False when none waits.
+  // estimateLate() and refine() run a deferred fusion first when they have
+  // a keyframe to estimate (its outcome comes with theirs), fuseAgain() as
+  // its work.
+  bool fuseDeferred(KeyframeResult* result);
+  bool fusionDeferred() const { return fusion_deferred_ || !undelivered_.fused.empty() || !undelivered_.evicted.empty(); }
 
   // Stores a keyframe as a source view only: no depth map of its own, ever
   // (e.g. one skipped for a newer keyframe while estimation lags behind).
@@ -289,8 +310,21 @@ class OnlineMapper {
   uint64_t mapRevision() const { return map_revision_; }
 
  private:
-  // Steps 3-6 for a stored keyframe whose sources were selected.
-  void estimateAndFuse(int64_t id, KeyframeResult* result);
+  // Steps 3-6 for a stored keyframe whose sources were selected; with
+  // `defer_fusion` step 5 waits for the next call (process()).
+  void estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult* result);
+  // The estimate of a pending keyframe (its sources are protected in the
+  // store); a deferred fusion runs meanwhile on this thread when the
+  // store's room guarantees that it cannot evict them.
+  DepthMap estimateWhileFusing(const DepthProblem& problem, KeyframeResult* result);
+  // A deferred fusion's outcome into `result`: what an earlier call left
+  // undelivered, then the fusion itself when it still waits.
+  void runDeferredFusion(KeyframeResult* result);
+  // Fused keyframes and evictions that an earlier failed call could not hand out.
+  void handOutUndelivered(KeyframeResult* result);
+  void keepUndelivered(KeyframeResult* result);
+  // Runs a deferred fusion now; its outcome waits in undelivered_.
+  void fuseDeferredNow();
   // estimateAndFuse() for an earlier keyframe (late: its first depth map;
   // else a refinement), into a fresh result.
   // `start`: when the call began (its selection is timed from there).
@@ -340,6 +374,13 @@ class OnlineMapper {
   std::unique_ptr<PoseRefiner> pose_refiner_;  // when options_.pose_refinement.enabled
   RefinedRelativePoses refined_poses_;         // what it found, for fusion (pose_refinement.in_fusion)
   EstimateFunction estimate_;
+  std::unique_ptr<SerialWorker> estimate_worker_;  // estimates that overlap a deferred fusion
+  bool fusion_deferred_ = false;  // step 5 of the last depth map waits (process(..., next_follows))
+  int64_t deferred_id_ = 0;       // that depth map's keyframe
+  // What a deferred fusion did during an estimate that then threw, or ahead
+  // of a late estimate or refinement: handed out with the next result (fused
+  // keyframes, evictions).
+  KeyframeResult undelivered_;
   FuseFunction fuse_;
   PublishFunction publish_;
   KeyframeStore store_;
