@@ -181,6 +181,18 @@ bool cudaDeviceUsable(std::string* description) {
   return true;
 }
 
+// An estimate's outputs on the device.
+struct OutputBuffers {
+  cuda::DeviceBuffer<float> depth, normal, cost;
+
+  void reserve(size_t pixels) {
+    depth.reserve(pixels);
+    normal.reserve(3 * pixels);
+    cost.reserve(pixels);
+  }
+  size_t bytes() const { return depth.bytes() + normal.bytes() + cost.bytes(); }
+};
+
 // Per-pixel buffers of the estimates, reused (grow only).
 struct WorkBuffers {
   cuda::DeviceBuffer<uint8_t> reference;
@@ -188,7 +200,11 @@ struct WorkBuffers {
   cuda::DeviceBuffer<float> costs;
   cuda::DeviceBuffer<uint32_t> selected;
   cuda::DeviceBuffer<int8_t> best_view;
-  cuda::DeviceBuffer<float> raw_depth, depth, normal, cost;
+  cuda::DeviceBuffer<float> raw_depth;
+  // Two sets, used in turn: the last estimate's outputs stay valid during
+  // the next one (the pipeline fuses a keyframe while the next is estimated).
+  OutputBuffers outputs[2];
+  int next_output = 0;
   // Geometric pass only: source depth maps, prior depth and normals.
   cuda::DeviceBuffer<float> source_depths, prior_depth, prior_normal;
 
@@ -199,13 +215,10 @@ struct WorkBuffers {
     selected.reserve(pixels);
     best_view.reserve(pixels);
     raw_depth.reserve(pixels);
-    depth.reserve(pixels);
-    normal.reserve(3 * pixels);
-    cost.reserve(pixels);
   }
   size_t bytes() const {
     return reference.bytes() + planes.bytes() + costs.bytes() + selected.bytes() + best_view.bytes() +
-           raw_depth.bytes() + depth.bytes() + normal.bytes() + cost.bytes() + source_depths.bytes() +
+           raw_depth.bytes() + outputs[0].bytes() + outputs[1].bytes() + source_depths.bytes() +
            prior_depth.bytes() + prior_normal.bytes();
   }
 };
@@ -219,7 +232,7 @@ class CudaState {
   WorkBuffers work;
   cuda::PinnedBuffer<uint8_t> source_staging, reference_staging;
   cuda::CudaEvent start, uploaded, stop;
-  DeviceDepthMap last_outputs;  // work.depth / normal / cost of the last estimate
+  DeviceDepthMap last_outputs;  // work.outputs of the last estimate
 };
 
 CudaState* createCudaState(const EstimatorResources& resources) { return new CudaState(resources); }
@@ -272,11 +285,16 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
   const int width = P.width, height = P.height;
   const size_t pixels = static_cast<size_t>(width) * height;
   WorkBuffers& work = state.work;
+  // The set the estimate before the last one wrote (the last one's stays
+  // valid); a failed estimate leaves it to the next.
+  const int output_set = work.next_output;
+  OutputBuffers& output = work.outputs[output_set];
   DepthMap out;
-  state.last_outputs = DeviceDepthMap();  // overwritten from here on
+  state.last_outputs = DeviceDepthMap();
   try {
     state.start.record(stream);
     work.reserve(pixels);
+    output.reserve(pixels);
     placeImages(state, problem, &P);
     // Host buffers live until the stream is synchronised below.
     const std::vector<float> source_depths = concatenateSourceDepths(problem, &P);
@@ -304,19 +322,19 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
     }
     const dim3 block(kBlockX, kBlockY);
     outputKernel<<<gridFor(width, height), block, 0, stream>>>(P, pixel_state, work.raw_depth.get(),
-                                                               work.normal.get(), work.cost.get());
+                                                               output.normal.get(), output.cost.get());
     AMHMVS_CUDA_CHECK_LAUNCH();
     medianKernel<<<gridFor(width, height), block, 0, stream>>>(width, height, options.median_filter_size,
-                                                               work.raw_depth.get(), work.depth.get());
+                                                               work.raw_depth.get(), output.depth.get());
     AMHMVS_CUDA_CHECK_LAUNCH();
 
     out.backend = Backend::kCuda;
     out.depth = ImageF(width, height);
     out.normal = ImageF(width, height, 3);
     out.cost = ImageF(width, height);
-    work.depth.downloadAsync(out.depth.data.data(), pixels, stream);
-    work.normal.downloadAsync(out.normal.data.data(), 3 * pixels, stream);
-    work.cost.downloadAsync(out.cost.data.data(), pixels, stream);
+    output.depth.downloadAsync(out.depth.data.data(), pixels, stream);
+    output.normal.downloadAsync(out.normal.data.data(), 3 * pixels, stream);
+    output.cost.downloadAsync(out.cost.data.data(), pixels, stream);
     state.stop.record(stream);
     state.stream.synchronize();
     state.pool.finish();
@@ -328,12 +346,13 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
     state.pool.forgetAll();
     throw;
   }
+  work.next_output = output_set ^ 1;
   state.last_outputs.host_depth = out.depth.data.data();
   state.last_outputs.host_normal = out.normal.data.data();
   state.last_outputs.host_cost = out.cost.data.data();
-  state.last_outputs.depth = work.depth.get();
-  state.last_outputs.normal = work.normal.get();
-  state.last_outputs.cost = work.cost.get();
+  state.last_outputs.depth = output.depth.get();
+  state.last_outputs.normal = output.normal.get();
+  state.last_outputs.cost = output.cost.get();
   state.last_outputs.width = width;
   state.last_outputs.height = height;
   out.milliseconds = state.stop.millisecondsSince(state.start);

@@ -240,7 +240,7 @@ class CudaReferenceFusion : public ReferenceFusion {
     resident_bytes_ = 0;
   }
 
-  void setDeviceSource(const DeviceDepthMap& map) override { device_source_ = map; }
+  void setDeviceSources(const std::vector<DeviceDepthMap>& maps) override { device_sources_ = maps; }
 
  private:
   // The agreement counts of views[reference] against views[sources]; with
@@ -320,22 +320,26 @@ class CudaReferenceFusion : public ReferenceFusion {
                     marking_ ? used_[index].get() : nullptr);
   }
 
-  // Whether `view` borrows the images of the device source (the estimator's
-  // last outputs): then they are copied on the device.
-  bool onDevice(const FusionView& view) const {
-    const DeviceDepthMap& source = device_source_;
-    return !source.empty() && view.depth.width == source.width && view.depth.height == source.height &&
-           view.depth.data == source.host_depth && view.normal.data == source.host_normal &&
-           (view.cost.empty() || view.cost.data == source.host_cost);
+  // The device source (an estimator's outputs) whose host images `view`
+  // borrows, if any: its maps are then copied on the device.
+  const DeviceDepthMap* onDevice(const FusionView& view) const {
+    for (const DeviceDepthMap& source : device_sources_) {
+      if (!source.empty() && view.depth.width == source.width && view.depth.height == source.height &&
+          view.depth.data == source.host_depth && view.normal.data == source.host_normal &&
+          (view.cost.empty() || view.cost.data == source.host_cost))
+        return &source;
+    }
+    return nullptr;
   }
 
   DeviceMaps upload(const FusionView& view) {
     DeviceMaps maps = acquire();
     const cudaStream_t stream = stream_.get();
-    const bool on_device = onDevice(view);
-    copyImage(view.depth, on_device ? device_source_.depth : nullptr, &maps.depth, stream);
-    copyImage(view.normal, on_device ? device_source_.normal : nullptr, &maps.normal, stream);
-    copyImage(view.cost, on_device ? device_source_.cost : nullptr, &maps.cost, stream);
+    const DeviceDepthMap* source = onDevice(view);
+    const bool on_device = source != nullptr;
+    copyImage(view.depth, on_device ? source->depth : nullptr, &maps.depth, stream);
+    copyImage(view.normal, on_device ? source->normal : nullptr, &maps.normal, stream);
+    copyImage(view.cost, on_device ? source->cost : nullptr, &maps.cost, stream);
     copyImage<uint8_t>(stagedColor(view.color), nullptr, &maps.color, stream);
     maps.last_call = call_;
     ++stats_.uploads;
@@ -424,7 +428,7 @@ class CudaReferenceFusion : public ReferenceFusion {
   size_t resident_bytes_ = 0;
   std::vector<DeviceMaps> scratch_;
   std::vector<DeviceMaps> spare_;  // buffers of maps that left, for the next ones
-  DeviceDepthMap device_source_;
+  std::vector<DeviceDepthMap> device_sources_;
   std::vector<DeviceMaps*> maps_;
   std::vector<cuda::DeviceBuffer<uint8_t>> used_;  // per view; grow only
   cuda::DeviceBuffer<ViewData> sources_;

@@ -64,8 +64,12 @@ void DepthMapFuser::forgetAll() {
   if (cuda_) cuda_->forgetAll();
 }
 
+void DepthMapFuser::setDeviceSources(const std::vector<DeviceDepthMap>& maps) {
+  if (cuda_) cuda_->setDeviceSources(maps);
+}
+
 void DepthMapFuser::setDeviceSource(const DeviceDepthMap& map) {
-  if (cuda_) cuda_->setDeviceSource(map);
+  setDeviceSources(map.empty() ? std::vector<DeviceDepthMap>() : std::vector<DeviceDepthMap>{map});
 }
 
 FuserCacheStats DepthMapFuser::cacheStats() const { return cuda_ ? cuda_->cacheStats() : FuserCacheStats(); }

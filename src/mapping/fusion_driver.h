@@ -51,9 +51,9 @@ class ReferenceFusion {
     (void)min_probability;
     return {};
   }
-  // A map whose depth, normal and cost are on the device already (see
-  // DepthMapFuser::setDeviceSource).
-  virtual void setDeviceSource(const DeviceDepthMap& map) { (void)map; }
+  // Maps whose depth, normal and cost are on the device already (see
+  // DepthMapFuser::setDeviceSources).
+  virtual void setDeviceSources(const std::vector<DeviceDepthMap>& maps) { (void)maps; }
 };
 
 // The CUDA backend (cuda/cuda_fusion.cu; throws BackendError in builds

@@ -197,20 +197,24 @@ void MappingPipeline::offerDeviceOutputs(const DepthMap& map) {
   // estimator made it (not the CPU fallback).
   const DeviceDepthMap outputs = estimator_->lastDeviceOutputs();
   std::lock_guard<std::mutex> lock(offer_mutex_);
-  offered_ = outputs.host_depth == map.depth.data.data() ? outputs : DeviceDepthMap();
+  offered_.push_back(outputs.host_depth == map.depth.data.data() ? outputs : DeviceDepthMap());
   offer_new_ = true;
 }
 
-void MappingPipeline::withdrawDeviceOffer() {
+void MappingPipeline::withdrawDeviceOffers(bool keep_last) {
   std::lock_guard<std::mutex> lock(offer_mutex_);
-  offered_ = DeviceDepthMap();
+  if (keep_last && !offered_.empty()) {
+    offered_.erase(offered_.begin(), offered_.end() - 1);
+  } else {
+    offered_.clear();
+  }
   offer_new_ = true;
 }
 
 void MappingPipeline::takeDeviceOffer() {
   std::lock_guard<std::mutex> lock(offer_mutex_);
   if (!offer_new_) return;
-  fuser_->setDeviceSource(offered_);
+  fuser_->setDeviceSources(offered_);
   offer_new_ = false;
 }
 
@@ -443,6 +447,7 @@ void MappingPipeline::applyPending() {
       if (!problems.empty()) throw InputError("estimator options:\n" + problems);
       mapper_->setOptions(next->first);  // a new voxel size rebuilds the map
       if (estimator_) {  // an injected estimator (tests) stays as it is
+        withdrawDeviceOffers(/*keep_last=*/false);  // the old estimator's buffers go with it
         estimator_.reset(new DepthEstimator(next->second, estimator_->backend(), options_.resources));
         cpu_estimator_.reset();
       }
@@ -500,8 +505,10 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
     failure = is_new ? &PipelineStats::dropped_processing_error : nullptr;
     reason = e.what();
   }
-  // The estimator's outputs change with its next estimate.
-  withdrawDeviceOffer();
+  // The estimator writes two sets of outputs in turn: the last estimate's
+  // stay valid during the next one (the fusion of a deferred keyframe reads
+  // them), the one's before are overwritten by it.
+  withdrawDeviceOffers(/*keep_last=*/true);
   // Also after a failure: the depth map may have been attached (and fused
   // on the GPU) before something else threw.
   trackDepthKey(output.result.id);

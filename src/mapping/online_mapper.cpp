@@ -338,12 +338,14 @@ DepthMap OnlineMapper::estimateWhileFusing(const DepthProblem& problem, Keyframe
   if (!estimate_worker_) estimate_worker_.reset(new SerialWorker());
   std::future<DepthMap> estimate =
       estimate_worker_->submit(std::function<DepthMap()>([this, &problem] { return estimate_(problem); }));
+  const Clock::time_point start = Clock::now();
   try {
     fuseWaiting(result);
   } catch (...) {
     estimate.wait();  // it borrows the problem's images
     throw;
   }
+  result->times.fused_during_estimate_ms = millisecondsSince(start);
   return estimate.get();
 }
 

@@ -9,7 +9,7 @@
 // Residency: a view with a key (FusionView::key >= 0) has its depth, normal,
 // cost and colour uploaded once and kept while they fit the device budget
 // (least recently used evicted first, counted); unkeyed views are uploaded
-// for one call. A map just estimated on the same GPU (setDeviceSource) is
+// for one call. A map just estimated on the same GPU (setDeviceSources) is
 // copied on the device instead of uploaded. Device buffers of maps that left
 // are reused (no allocation per keyframe).
 #pragma once
@@ -34,7 +34,7 @@ struct FuserResources {
 
 struct FuserCacheStats {
   uint64_t uploads = 0;     // maps copied to the device (from the host or from device_copies)
-  uint64_t device_copies = 0;  // of those: depth, normal and cost copied on the device (setDeviceSource)
+  uint64_t device_copies = 0;  // of those: depth, normal and cost copied on the device (setDeviceSources)
   uint64_t hits = 0;        // keyed maps found there
   uint64_t evictions = 0;   // keyed maps dropped to stay in the budget
   uint64_t forgotten = 0;   // keyed maps dropped by forget() / forgetAll()
@@ -88,9 +88,11 @@ class DepthMapFuser {
   void forgetAll();
 
   // The estimator's last outputs (DepthEstimator::lastDeviceOutputs): a view
-  // that borrows exactly those host images is copied from `map` on the
-  // device (its colour is still uploaded). An empty map clears it. The
-  // device memory must stay unchanged while set. No-op on the CPU.
+  // that borrows exactly the host images of one of `maps` is copied from it
+  // on the device (its colour is still uploaded). An empty list clears them.
+  // The device memory must stay unchanged while set. No-op on the CPU.
+  void setDeviceSources(const std::vector<DeviceDepthMap>& maps);
+  // One map (an empty one clears them).
   void setDeviceSource(const DeviceDepthMap& map);
 
   Backend backend() const { return backend_; }

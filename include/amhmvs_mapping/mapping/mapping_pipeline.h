@@ -253,7 +253,7 @@ class MappingPipeline {
   // worker's thread (takeDeviceOffer), so that an estimate on another
   // thread never changes the fuser during a fusion.
   void offerDeviceOutputs(const DepthMap& map);
-  void withdrawDeviceOffer();
+  void withdrawDeviceOffers(bool keep_last);
   void takeDeviceOffer();
   void report(LogLevel level, const std::string& kind, const std::string& line);
   // Why the input outruns the estimator, measured (keyframe interval, time
@@ -271,7 +271,7 @@ class MappingPipeline {
   std::unique_ptr<FallbackEstimator> fallback_;
   std::unique_ptr<DepthMapFuser> fuser_;  // fusion on the GPU when the estimator runs there
   std::mutex offer_mutex_;
-  DeviceDepthMap offered_;                // the last estimate's device outputs (or none)
+  std::vector<DeviceDepthMap> offered_;   // the last estimates' device outputs (empty: a CPU estimate's)
   bool offer_new_ = false;                // not yet handed to the fuser
   // Keyframe id -> the fuser key of its depth map (FusionView::key, which is
   // not the keyframe id): a replaced (refined) map or an evicted keyframe's

@@ -173,6 +173,9 @@ struct StageTimes {
   double fusion_ms = 0;        // consistency views and checks of the keyframes fused by this result
   double confidence_ms = 0;    // their confidence and published depth (confidence.enabled)
   double map_ms = 0;           // voxel map updates, or waiting for the one in the background
+  // A deferred fusion that ran during this estimate (process(..., next_follows)),
+  // wall clock: inside estimate_ms; its parts are in store, fusion, confidence and map too.
+  double fused_during_estimate_ms = 0;
   double total_ms = 0;         // the whole call (without queue_wait_ms)
 };
 

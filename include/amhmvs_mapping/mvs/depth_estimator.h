@@ -172,9 +172,11 @@ class DepthEstimator {
   void forget(int64_t key);
   void forgetAll();
   DeviceCacheStats deviceCacheStats() const;
-  // CUDA: the last estimate's outputs on the device, valid until this
-  // estimator's next estimate (empty on the CPU, before the first estimate
-  // and after one that failed).
+  // CUDA: the last estimate's outputs on the device (empty on the CPU,
+  // before the first estimate and after one that failed). Valid during the
+  // next estimate too, until the one after it has begun: estimates write
+  // two sets of output buffers in turn (a failed one does not count), so
+  // that a consumer can read a keyframe's maps while the next is estimated.
   DeviceDepthMap lastDeviceOutputs() const;
 
   Backend backend() const { return backend_; }
