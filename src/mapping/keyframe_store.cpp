@@ -141,6 +141,7 @@ std::vector<int64_t> KeyframeStore::add(Keyframe keyframe) {
   entry.sequence = next_sequence_++;
   entry.stored = std::move(stored);
   order_[entry.sequence] = id;
+  ++revision_;
   return evicted;
 }
 
@@ -225,6 +226,7 @@ void KeyframeStore::erase(int64_t id) {
   bytes_ -= entry.stored.bytes;
   order_.erase(entry.sequence);
   entries_.erase(id);
+  ++revision_;
 }
 
 void KeyframeStore::remove(int64_t id) {
@@ -275,6 +277,7 @@ std::vector<int64_t> KeyframeStore::attachDepth(int64_t id, Shared<DepthMap> sha
   kept.stored.bytes = kept.stored.bytes - old_bytes + new_bytes;
   kept.stored.state = KeyframeState::kDone;
   releaseSources(&kept.stored);
+  ++revision_;
   return evicted;
 }
 
@@ -303,6 +306,7 @@ void KeyframeStore::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_wo
   for (Eigen::Vector3d& point : keyframe.sparse_points) point = motion * point;
   keyframe.setCameraToWorld(camera_to_world);
   ++entry.stored.pose_revision;
+  ++revision_;
 }
 
 std::vector<int64_t> KeyframeStore::ids() const {

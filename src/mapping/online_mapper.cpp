@@ -222,7 +222,9 @@ bool OnlineMapper::refine(KeyframeResult* result) {
   const Clock::time_point start = Clock::now();
   for (auto& [id, record] : estimates_) {
     if (record.refinements >= options_.refinement.max_refinements) continue;
+    if (record.selection_checked_at == store_.revision()) continue;  // what selection reads has not changed
     SourceSelection selection = selectSources(store_, id, options_.sources);
+    record.selection_checked_at = store_.revision();
     std::vector<int64_t> before = record.sources, now = selection.source_ids;
     std::sort(before.begin(), before.end());
     std::sort(now.begin(), now.end());
@@ -634,6 +636,7 @@ void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
     noteMapChanged();
   }
   kept.map = map_.options();
+  for (auto& entry : estimates_) entry.second.selection_checked_at = EstimateRecord::kNeverChecked;  // new criteria
   if (!options.pose_refinement.enabled) {
     pose_refiner_.reset();
   } else if (!pose_refiner_ || pose_refiner_->options() != options.pose_refinement) {

@@ -223,6 +223,36 @@ TEST(KeyframeStore, EvictsByDocumentedPolicy) {
   EXPECT_INPUT_ERROR(store.keyframe(2), "keyframe 2", "unknown id");
 }
 
+TEST(KeyframeStore, RevisionChangesWithWhatSourceSelectionReads) {
+  KeyframeStoreOptions options;
+  options.max_keyframes = 2;
+  KeyframeStore store(options);
+  uint64_t last = store.revision();
+  const auto changed = [&] {
+    const bool moved = store.revision() != last;
+    last = store.revision();
+    return moved;
+  };
+  store.add(makeKeyframe(1));
+  EXPECT_TRUE(changed());
+  store.add(makeKeyframe(2));
+  EXPECT_TRUE(changed());
+  store.setSources(2, {1});
+  EXPECT_FALSE(changed());
+  store.attachDepth(1, makeDepth());
+  EXPECT_TRUE(changed());
+  store.attachPoints(1, KeyframePoints(10));
+  EXPECT_FALSE(changed());
+  store.updatePose(1, poseAt(Eigen::Vector3d(0.5, 0, 0)));
+  EXPECT_TRUE(changed());
+  EXPECT_INPUT_ERROR(store.add(makeKeyframe(3, 0.5)), "keyframe 3", "backwards");  // refused: nothing changed
+  EXPECT_FALSE(changed());
+  EXPECT_EQ(store.add(makeKeyframe(3)), std::vector<int64_t>{1});  // an eviction and an add
+  EXPECT_TRUE(changed());
+  store.remove(3);
+  EXPECT_TRUE(changed());
+}
+
 TEST(KeyframeStore, RoomBeforePendingWorkIsEvictedCountsFreeBytesAndTierOneOnly) {
   KeyframeStoreOptions options;
   options.max_bytes = 10 * kImageBytes + 4 * kDepthBytes;

@@ -147,6 +147,9 @@ class KeyframeStore {
   size_t size() const { return entries_.size(); }
   size_t bytes() const { return bytes_; }
   size_t evictedCount() const { return evicted_count_; }
+  // Changes with every keyframe added, removed or evicted, depth map attached
+  // or pose changed: what source selection reads (points and sources do not count).
+  uint64_t revision() const { return revision_; }
   const KeyframeStoreOptions& options() const { return options_; }
 
  private:
@@ -171,6 +174,7 @@ class KeyframeStore {
   double last_stamp_ = 0;
   size_t bytes_ = 0;
   size_t evicted_count_ = 0;
+  uint64_t revision_ = 0;
 };
 
 // Payload bytes of an image.

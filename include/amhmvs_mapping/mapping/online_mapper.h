@@ -339,6 +339,10 @@ class OnlineMapper {
     double score = 0;  // total selection score
     int refinements = 0;
     bool fused = false;  // fused once (even with no point): a later fusion is "again"
+    // The store's revision when refine() last chose its sources anew and kept
+    // the estimate (an idle pipeline asks every step; nothing changed since).
+    uint64_t selection_checked_at = kNeverChecked;
+    static constexpr uint64_t kNeverChecked = ~uint64_t{0};
   };
   // The consistency views of a keyframe with a depth map (see step 5).
   std::vector<int64_t> consistencyViews(int64_t id) const;
