@@ -53,6 +53,7 @@ set(AMHMVS_CORE_SOURCES
   src/mvs/propagation_pattern.cpp
   src/mvs/depth_estimator.cpp
   src/mvs/coarse_to_fine.cpp
+  src/mvs/scaled_image_cache.cpp
   src/mvs/plane_map.cpp
   src/mvs/cpu_backend.cpp
   src/mvs/problem_builder.cpp

@@ -9,6 +9,8 @@
 #include <sstream>
 
 #include "../src/mvs/backends.h"
+#include "amhmvs_mapping/mvs/plane_map.h"
+#include "amhmvs_mapping/mvs/plane_resampling_pixel.h"
 #include "cuda_check.h"
 #include "device_image_pool.h"
 
@@ -128,6 +130,21 @@ __global__ void medianKernel(int width, int height, int size, const float* raw_d
   if (x < width && y < height) depth[y * width + x] = medianDepth(raw_depth, width, height, x, y, size);
 }
 
+// A coarser scale's planes carried to this scale (resamplePixel): the start
+// of a coarse-to-fine estimate's next scale, NaN depth and zero normal where
+// nothing is carried.
+__global__ void resampleKernel(PlaneResampling r, float* depth, float* normal) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= r.to.width || y >= r.to.height) return;
+  const int index = y * r.to.width + x;
+  Vec3 n = {0.0f, 0.0f, 0.0f};
+  if (!resamplePixel(r, x, y, &depth[index], &n)) depth[index] = nanf_hd();
+  normal[3 * index + 0] = n.x;
+  normal[3 * index + 1] = n.y;
+  normal[3 * index + 2] = n.z;
+}
+
 dim3 gridFor(int width, int height) {
   return dim3((width + kBlockX - 1) / kBlockX, (height + kBlockY - 1) / kBlockY);
 }
@@ -205,6 +222,14 @@ struct WorkBuffers {
   // the next one (the pipeline fuses a keyframe while the next is estimated).
   OutputBuffers outputs[2];
   int next_output = 0;
+  // The coarser scales' outputs of a coarse-to-fine estimate: never one of
+  // the two sets above, which may hold the last result while it is fused;
+  // with the reference image they were estimated on, the next scale's start
+  // is carried from them on the device.
+  OutputBuffers intermediate;
+  cuda::DeviceBuffer<uint8_t> intermediate_reference;
+  const float* intermediate_host_depth = nullptr;  // their download, while it is the last estimate's
+  int intermediate_width = 0, intermediate_height = 0;
   // Geometric pass only: source depth maps, prior depth and normals.
   cuda::DeviceBuffer<float> source_depths, prior_depth, prior_normal;
 
@@ -218,7 +243,8 @@ struct WorkBuffers {
   }
   size_t bytes() const {
     return reference.bytes() + planes.bytes() + costs.bytes() + selected.bytes() + best_view.bytes() +
-           raw_depth.bytes() + outputs[0].bytes() + outputs[1].bytes() + source_depths.bytes() +
+           raw_depth.bytes() + outputs[0].bytes() + outputs[1].bytes() + intermediate.bytes() +
+           intermediate_reference.bytes() + source_depths.bytes() +
            prior_depth.bytes() + prior_normal.bytes();
   }
 };
@@ -276,10 +302,48 @@ void placeImages(CudaState& state, const DepthProblem& problem, PatchMatchParams
   }
 }
 
+RayCamera rayCamera(const PinholeCamera& camera) {
+  return {camera.fx, camera.fy, camera.cx, camera.cy, camera.width, camera.height};
+}
+
+// The start of this scale of a coarse-to-fine estimate: the coarser scale's
+// planes carried into the prior buffers, on the device. They come from the
+// intermediate outputs when the coarser estimate was the last one here (the
+// driver's order), else they are uploaded first. Queued on the state's
+// stream after placeImages (it reads this scale's reference image).
+void carryCoarserPlanes(CudaState& state, const DepthProblem& problem, bool coarser_on_device, PatchMatchParams* P) {
+  const DepthProblem::CoarserScale& coarser = *problem.coarser;
+  const cudaStream_t stream = state.stream.get();
+  WorkBuffers& work = state.work;
+  if (!coarser_on_device) {
+    const size_t from_pixels = coarser.image.pixelCount();
+    work.intermediate.reserve(from_pixels);
+    work.intermediate_reference.reserve(from_pixels);
+    work.intermediate.depth.uploadAsync(coarser.depth.data, from_pixels, stream);
+    work.intermediate.normal.uploadAsync(coarser.normal.data, 3 * from_pixels, stream);
+    work.intermediate_reference.uploadAsync(coarser.image.data, from_pixels, stream);
+  }
+  const size_t pixels = static_cast<size_t>(P->width) * P->height;
+  work.prior_depth.reserve(pixels);
+  work.prior_normal.reserve(3 * pixels);
+  const PlaneResampling resampling{rayCamera(coarser.camera),
+                                   rayCamera(problem.reference_camera),
+                                   work.intermediate.depth.get(),
+                                   work.intermediate.normal.get(),
+                                   work.intermediate_reference.get(),
+                                   work.reference.get(),
+                                   -0.5f / (kResamplingSigmaIntensity * kResamplingSigmaIntensity)};
+  resampleKernel<<<gridFor(P->width, P->height), dim3(kBlockX, kBlockY), 0, stream>>>(
+      resampling, work.prior_depth.get(), work.prior_normal.get());
+  AMHMVS_CUDA_CHECK_LAUNCH();
+  P->prior_depth = work.prior_depth.get();
+  P->prior_normal = work.prior_normal.get();
+}
+
 }  // namespace
 
 DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, const PatchMatchParams& params,
-                        const DepthProblem& problem) {
+                        const DepthProblem& problem, CudaOutputUse use) {
   const cudaStream_t stream = state.stream.get();
   PatchMatchParams P = params;
   const int width = P.width, height = P.height;
@@ -287,10 +351,16 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
   WorkBuffers& work = state.work;
   // The set the estimate before the last one wrote (the last one's stays
   // valid); a failed estimate leaves it to the next.
+  const bool result = use == CudaOutputUse::kResult;
   const int output_set = work.next_output;
-  OutputBuffers& output = work.outputs[output_set];
+  OutputBuffers& output = result ? work.outputs[output_set] : work.intermediate;
   DepthMap out;
   state.last_outputs = DeviceDepthMap();
+  // A coarser scale estimated here just before: its maps are on the device.
+  const bool coarser_on_device = problem.coarser && work.intermediate_host_depth == problem.coarser->depth.data &&
+                                 work.intermediate_width == problem.coarser->camera.width &&
+                                 work.intermediate_height == problem.coarser->camera.height;
+  work.intermediate_host_depth = nullptr;  // this estimate replaces or invalidates them
   try {
     state.start.record(stream);
     work.reserve(pixels);
@@ -303,6 +373,7 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
       work.source_depths.uploadAsync(source_depths.data(), source_depths.size(), stream);
       P.source_depths = work.source_depths.get();
     }
+    if (problem.coarser) carryCoarserPlanes(state, problem, coarser_on_device, &P);
     if (problem.prior_depth.data) {
       work.prior_depth.reserve(pixels);
       work.prior_normal.reserve(3 * pixels);
@@ -335,6 +406,11 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
     output.depth.downloadAsync(out.depth.data.data(), pixels, stream);
     output.normal.downloadAsync(out.normal.data.data(), 3 * pixels, stream);
     output.cost.downloadAsync(out.cost.data.data(), pixels, stream);
+    if (!result) {  // the next scale carries these maps from its reference image
+      work.intermediate_reference.reserve(pixels);
+      AMHMVS_CUDA_CHECK(cudaMemcpyAsync(work.intermediate_reference.get(), work.reference.get(), pixels,
+                                        cudaMemcpyDeviceToDevice, stream));
+    }
     state.stop.record(stream);
     state.stream.synchronize();
     state.pool.finish();
@@ -346,6 +422,15 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
     state.pool.forgetAll();
     throw;
   }
+  out.milliseconds = state.stop.millisecondsSince(state.start);
+  out.compute_milliseconds = state.stop.millisecondsSince(state.uploaded);
+  out.gpu_memory_bytes = state.pool.stats().pool_bytes + work.bytes();
+  if (!result) {
+    work.intermediate_host_depth = out.depth.data.data();
+    work.intermediate_width = width;
+    work.intermediate_height = height;
+    return out;
+  }
   work.next_output = output_set ^ 1;
   state.last_outputs.host_depth = out.depth.data.data();
   state.last_outputs.host_normal = out.normal.data.data();
@@ -355,10 +440,6 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
   state.last_outputs.cost = output.cost.get();
   state.last_outputs.width = width;
   state.last_outputs.height = height;
-  out.milliseconds = state.stop.millisecondsSince(state.start);
-  out.compute_milliseconds = state.stop.millisecondsSince(state.uploaded);
-  const DeviceCacheStats stats = cudaCacheStats(state);
-  out.gpu_memory_bytes = stats.pool_bytes + stats.work_bytes;
   return out;
 }
 

@@ -8,7 +8,8 @@
 #   bash build-gpu-stage/gpu_prebuilt.sh run STEP...   there (device tool, carry: build-gpu-stage)
 #
 # STEPs (V = new, this checkout, or base, BASE_COMMIT built alongside):
-#   pipe:V[:ENV=VALUE]  amhmvs_benchmark --only pipeline (BENCH_ONLY=... for other sections)
+#   pipe:V[:ENV=VALUE]  amhmvs_benchmark --only pipeline (BENCH_ONLY=... for other sections,
+#                       BENCH_ARGS=... for more options, e.g. "--pipeline-multiscale 2,1")
 #   replay:V:N          amhmvs_benchmark --only replay --replay N (host and device memory)
 #   wall:V              amhmvs_depth wall time on fountain x0.25 (5 program runs)
 #   tests:V             amhmvs_gpu_tests (without the CPU fountain run)
@@ -38,6 +39,8 @@ stage() {
     git -C "$here" archive "$base" | tar -x -C "$here/build-gpu-base-src"
     build "$here/build-gpu-base-src" "$here/build-gpu-base" || exit 1
     tar -czf "$stage_dir/base.tgz" -C "$here/build-gpu-base" $programs
+    # A second copy of the package in the checkout would confuse rostest's package search.
+    rm -rf "$here/build-gpu-base-src"
   fi
   cp -L /usr/local/cuda/lib64/libcudart.so.13 /lib/x86_64-linux-gnu/libgomp.so.1 "$stage_dir/lib/"
   # The real data converted for a build without image decoders (fountain
@@ -68,7 +71,8 @@ run() {
     case $step in
       pipe:*)
         IFS=: read -r _ v envs <<< "$step"
-        env $envs "/tmp/$v/amhmvs_benchmark" /tmp/d --only "${BENCH_ONLY:-pipeline}" \
+        # shellcheck disable=SC2086
+        env $envs "/tmp/$v/amhmvs_benchmark" /tmp/d --only "${BENCH_ONLY:-pipeline}" ${BENCH_ARGS:-} \
           --out "$out/bench_${v}_$(date +%H%M%S).md" 2>&1 | grep -E "^\| [48] |per reference|^\| [0-9.]+ \|" ;;
       replay:*)
         IFS=: read -r _ v n <<< "$step"

@@ -20,8 +20,12 @@ DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams&
 // Device state of one estimator: image pool, work buffers, stream.
 CudaState* createCudaState(const EstimatorResources& resources);
 void destroyCudaState(CudaState* state);
-DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options,
-                        const PatchMatchParams& params, const DepthProblem& problem);
+// What an estimate's device outputs are: the result (kept, in one of two
+// sets used in turn, until the estimate after next: cudaLastOutputs) or a
+// coarser scale of a coarse-to-fine estimate (scratch, overwritten by the next).
+enum class CudaOutputUse { kResult, kIntermediate };
+DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, const PatchMatchParams& params,
+                        const DepthProblem& problem, CudaOutputUse use);
 void forgetOnCuda(CudaState& state, int64_t key);
 void forgetAllOnCuda(CudaState& state);
 DeviceCacheStats cudaCacheStats(const CudaState& state);

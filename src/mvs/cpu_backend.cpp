@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "amhmvs_mapping/mvs/cpu_sampler.h"
+#include "amhmvs_mapping/mvs/plane_map.h"
 #include "backends.h"
 
 namespace amhmvs {
@@ -41,6 +42,13 @@ DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams&
   if (problem.prior_depth.data) {
     P.prior_depth = problem.prior_depth.data;
     P.prior_normal = problem.prior_normal.data;
+  }
+  PlaneMap carried;  // a coarser scale's planes at this scale
+  if (problem.coarser) {
+    const DepthProblem::CoarserScale& c = *problem.coarser;
+    carried = resamplePlanes(c.depth, c.normal, c.camera, c.image, problem.reference_camera, problem.reference_image);
+    P.prior_depth = carried.depth.data.data();
+    P.prior_normal = carried.normal.data.data();
   }
   CpuSampler sampler{};
   sampler.reference_image = problem.reference_image;

@@ -17,7 +17,8 @@ CudaState* createCudaState(const EstimatorResources&) {
   throw BackendError("this build has no CUDA backend (nvcc was not found)");
 }
 void destroyCudaState(CudaState* state) { delete state; }
-DepthMap estimateOnCuda(CudaState&, const PatchMatchOptions&, const PatchMatchParams&, const DepthProblem&) {
+DepthMap estimateOnCuda(CudaState&, const PatchMatchOptions&, const PatchMatchParams&, const DepthProblem&,
+                        CudaOutputUse) {
   throw BackendError("this build has no CUDA backend (nvcc was not found)");
 }
 void forgetOnCuda(CudaState&, int64_t) {}

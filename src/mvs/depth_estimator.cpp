@@ -50,6 +50,14 @@ std::string DepthProblem::validate() const {
         << " source views (give none or one per source)\n";
   }
   if (source_cameras.empty()) why << "no source views: at least 1 is needed\n";
+  const auto check_key = [&](const std::string& label, int64_t key) {
+    if (key != kNoImageKey && key <= mvs::kScaledImageKeyBase) {
+      why << label << ": image key " << key << " is reserved (keys must be above " << mvs::kScaledImageKeyBase
+          << ")\n";
+    }
+  };
+  check_key("reference view", reference_key);
+  for (size_t i = 0; i < source_keys.size(); ++i) check_key("source view " + std::to_string(i), source_keys[i]);
   if (source_cameras.size() > static_cast<size_t>(kMaxSourceViews)) {
     why << source_cameras.size() << " source views; at most " << kMaxSourceViews
         << " are supported\n";
@@ -83,6 +91,16 @@ std::string DepthProblem::validate() const {
         << ") and normal (" << prior_normal.width << "x" << prior_normal.height << "x" << prior_normal.channels
         << ") maps must be 1 and 3 channels at the reference size " << reference_camera.width << "x"
         << reference_camera.height << "\n";
+  }
+  if (coarser) {
+    const CoarserScale& c = *coarser;
+    if (has_prior_depth) why << "a coarser scale's planes and a prior depth map cannot both start an estimate\n";
+    if (c.image.channels != 1 || !c.image.sameSize(c.camera.width, c.camera.height) || c.depth.channels != 1 ||
+        !c.depth.sameSize(c.camera.width, c.camera.height) || c.normal.channels != 3 ||
+        !c.normal.sameSize(c.camera.width, c.camera.height) || !c.image.data || !c.depth.data || !c.normal.data) {
+      why << "coarser scale: image, depth and normal maps must be 1, 1 and 3 channels at its camera's size "
+          << c.camera.width << "x" << c.camera.height << "\n";
+    }
   }
   if (prior_iterations < 0 || prior_iterations > 100) {
     why << "prior_iterations " << prior_iterations << " must be in 0..100 (0: the estimator's schedule)\n";
@@ -200,23 +218,32 @@ DepthMap DepthEstimator::estimate(const DepthProblem& problem) const {
     options.first_iteration = options.bisection_only_iterations;
   }
   // Every scale of a coarse-to-fine estimate runs on this estimator's backend.
-  return mvs::estimateCoarseToFine(options, problem, [this](const PatchMatchOptions& options,
-                                                             const DepthProblem& scale_problem) {
+  return mvs::estimateCoarseToFine(options, problem, [this, &problem](const PatchMatchOptions& options,
+                                                                       const DepthProblem& scale_problem) {
     const mvs::PatchMatchParams params = mvs::makePatchMatchParams(options, scale_problem);
     if (backend_ == Backend::kCuda) {
+      // A coarser scale's maps only start the next scale: they must not take
+      // the place of the last result, which may still be fused.
+      const bool full_scale = scale_problem.reference_camera.width == problem.reference_camera.width &&
+                              scale_problem.reference_camera.height == problem.reference_camera.height;
       const std::lock_guard<std::mutex> lock(mutex_);
-      return mvs::estimateOnCuda(*cuda_, options, params, scale_problem);
+      return mvs::estimateOnCuda(*cuda_, options, params, scale_problem,
+                                 full_scale ? mvs::CudaOutputUse::kResult : mvs::CudaOutputUse::kIntermediate);
     }
     return mvs::estimateOnCpu(options, params, scale_problem);
-  });
+  }, &scaled_images_);
 }
 
 void DepthEstimator::forget(int64_t key) {
+  const std::vector<int64_t> scaled_keys = scaled_images_.forget(key);
   const std::lock_guard<std::mutex> lock(mutex_);
-  if (cuda_) mvs::forgetOnCuda(*cuda_, key);
+  if (!cuda_) return;
+  mvs::forgetOnCuda(*cuda_, key);
+  for (int64_t scaled_key : scaled_keys) mvs::forgetOnCuda(*cuda_, scaled_key);
 }
 
 void DepthEstimator::forgetAll() {
+  scaled_images_.forgetAll();
   const std::lock_guard<std::mutex> lock(mutex_);
   if (cuda_) mvs::forgetAllOnCuda(*cuda_);
 }

@@ -6,13 +6,14 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mvs/hd.h"
+#include "amhmvs_mapping/mvs/plane_resampling_pixel.h"
 
 namespace amhmvs {
 namespace mvs {
 namespace {
 
-Vec3 cameraRay(const PinholeCamera& camera, double x, double y) {
-  return {static_cast<float>((x - camera.cx) / camera.fx), static_cast<float>((y - camera.cy) / camera.fy), 1.0f};
+RayCamera rayCamera(const PinholeCamera& camera) {
+  return {camera.fx, camera.fy, camera.cx, camera.cy, camera.width, camera.height};
 }
 
 void setNormal(ImageF* normal, int x, int y, Vec3 n) {
@@ -38,53 +39,13 @@ PlaneMap resamplePlanes(const ImageViewF& from_depth, const ImageViewF& from_nor
                         const PinholeCamera& to_camera, const ImageViewU8& to_image, float sigma_intensity) {
   const int to_width = to_camera.width, to_height = to_camera.height;
   PlaneMap out{ImageF(to_width, to_height, 1, std::nanf("")), ImageF(to_width, to_height, 3, 0.0f)};
-  const double sx = static_cast<double>(from_camera.width) / to_width;
-  const double sy = static_cast<double>(from_camera.height) / to_height;
-  const float intensity_factor = -0.5f / (sigma_intensity * sigma_intensity);
+  const PlaneResampling resampling{rayCamera(from_camera), rayCamera(to_camera), from_depth.data, from_normal.data,
+                                   from_image.data, to_image.data, -0.5f / (sigma_intensity * sigma_intensity)};
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < to_height; ++y) {
     for (int x = 0; x < to_width; ++x) {
-      const Vec3 to_ray = cameraRay(to_camera, x, y);
-      const double u = (x + 0.5) * sx - 0.5, v = (y + 0.5) * sy - 0.5;  // in the `from` image
-      const int cu = static_cast<int>(std::lround(u)), cv = static_cast<int>(std::lround(v));
-      const float guide = to_image.at(x, y);
-      // The neighbours' planes on this pixel's ray and their log weights.
-      float depths[9], log_weights[9], max_log_weight = -INFINITY;
-      Vec3 normals[9];
-      int count = 0;
-      for (int qy = cv - 1; qy <= cv + 1; ++qy) {
-        for (int qx = cu - 1; qx <= cu + 1; ++qx) {
-          if (qx < 0 || qy < 0 || qx >= from_camera.width || qy >= from_camera.height) continue;
-          const float depth = from_depth.at(qx, qy);
-          const Vec3 n = {from_normal.at(qx, qy, 0), from_normal.at(qx, qy, 1), from_normal.at(qx, qy, 2)};
-          if (!(depth > 0.0f) || !(dot(n, n) > 0.5f)) continue;
-          // The `from` pixel's plane (camera frame: the same at every scale)
-          // on the fine pixel's ray.
-          const Plane plane = planeFromDepthNormal(n, depth, cameraRay(from_camera, qx, qy));
-          const float to_depth = planeDepth(plane, to_ray);
-          if (!(to_depth > 0.0f) || !std::isfinite(to_depth)) continue;
-          const float dx = static_cast<float>(qx - u), dy = static_cast<float>(qy - v);
-          const float di = guide - static_cast<float>(from_image.at(qx, qy));
-          depths[count] = to_depth;
-          normals[count] = n;
-          log_weights[count] = -0.5f * (dx * dx + dy * dy) + intensity_factor * di * di;
-          max_log_weight = std::max(max_log_weight, log_weights[count]);
-          ++count;
-        }
-      }
-      // Weights relative to the largest: no underflow where every neighbour
-      // differs much from the guide.
-      float weight_sum = 0.0f, depth_sum = 0.0f;
-      Vec3 normal_sum = {0.0f, 0.0f, 0.0f};
-      for (int k = 0; k < count; ++k) {
-        const float w = std::exp(log_weights[k] - max_log_weight);
-        weight_sum += w;
-        depth_sum += w * depths[k];
-        normal_sum = normal_sum + w * normals[k];
-      }
-      if (!(weight_sum > 0.0f) || !(dot(normal_sum, normal_sum) > 0.0f)) continue;
-      out.depth.at(x, y) = depth_sum / weight_sum;
-      setNormal(&out.normal, x, y, normalized(normal_sum));
+      Vec3 normal;
+      if (resamplePixel(resampling, x, y, &out.depth.at(x, y), &normal)) setNormal(&out.normal, x, y, normal);
     }
   }
   return out;
@@ -93,6 +54,7 @@ PlaneMap resamplePlanes(const ImageViewF& from_depth, const ImageViewF& from_nor
 PlaneMap reprojectPlanes(const std::vector<PlaneMapView>& from, const PinholeCamera& to, float max_cost,
                          int splat_radius) {
   PlaneMap out{ImageF(to.width, to.height, 1, std::nanf("")), ImageF(to.width, to.height, 3, 0.0f)};
+  const RayCamera to_rays = rayCamera(to);
   for (size_t v = 0; v < from.size(); ++v) {
     const PlaneMapView& view = from[v];
     checkSize(view, v);
@@ -117,7 +79,7 @@ PlaneMap reprojectPlanes(const std::vector<PlaneMapView>& from, const PinholeCam
         for (int qy = cv - splat_radius; qy <= cv + splat_radius; ++qy) {
           for (int qx = cu - splat_radius; qx <= cu + splat_radius; ++qx) {
             if (qx < 0 || qy < 0 || qx >= to.width || qy >= to.height) continue;
-            const float splat_depth = planeDepth(plane, cameraRay(to, qx, qy));
+            const float splat_depth = planeDepth(plane, cameraRay(to_rays, qx, qy));
             if (!(std::fabs(splat_depth - p.z) <= kMaxSplatDepthSpread * p.z)) continue;
             float& nearest = out.depth.at(qx, qy);
             if (nearest <= splat_depth) continue;  // NaN compares false: written

@@ -12,6 +12,8 @@
 //                                           fusion, map, pipeline, replay, pose)
 //                         [--replay N]     keyframes of the memory replay (10000)
 //                         [--map-foreground] the replay updates the voxel map in its own thread
+//                         [--pipeline-multiscale N[,K]] the pipeline's estimator at N scales (1),
+//                                           K iterations at the finer ones (2)
 //
 // Online pipeline tables (MappingPipeline, GPU when usable):
 //   fusion:   fuseDepthMaps (CPU, OpenMP, all cores) of a 640x480 keyframe
@@ -278,8 +280,16 @@ std::string mapTable(int count) {
   return out.str();
 }
 
-PipelineOptions pipelineOptions(int sources) {
+// Coarse-to-fine settings of the pipeline table's estimator.
+struct Multiscale {
+  int levels = 1;
+  int iterations = PatchMatchOptions().multiscale_iterations;
+};
+
+PipelineOptions pipelineOptions(int sources, Multiscale multiscale = Multiscale()) {
   PipelineOptions options;
+  options.estimator.multiscale_levels = multiscale.levels;
+  options.estimator.multiscale_iterations = multiscale.iterations;
   options.mapper.sources.max_sources = sources;
   options.mapper.map.leaf_size = 0.02;
   options.queue_size = 4;
@@ -288,10 +298,14 @@ PipelineOptions pipelineOptions(int sources) {
 
 // The online pipeline on a 640x480 room sequence: push one keyframe, one
 // step() (sustained camera-rate input, serial: what one GPU does).
-std::string pipelineTable(int keyframe_count) {
+std::string pipelineTable(int keyframe_count, Multiscale multiscale) {
   std::ostringstream out;
   out << "\n## Online pipeline (MappingPipeline), 640x480 room sequence, " << keyframe_count
-      << " keyframes, 6 iterations\n\n"
+      << " keyframes, 6 iterations";
+  if (multiscale.levels > 1) {
+    out << ", " << multiscale.levels << " scales (" << multiscale.iterations << " iterations at the finer ones)";
+  }
+  out << "\n\n"
       << "Wall clock per keyframe: push() of the next keyframe and the step() that processes this one (the "
          "next keyframe waits meanwhile, as in a camera-rate stream: refinements, which only run when the queue "
          "is empty, do not); stages are medians over the keyframes "
@@ -306,7 +320,7 @@ std::string pipelineTable(int keyframe_count) {
   const std::vector<Keyframe> keyframes = roomKeyframes(keyframe_count, 640, 480, 1);
   std::string splits;  // after the table
   for (int sources : {4, 8}) {
-    MappingPipeline pipeline(pipelineOptions(sources));
+    MappingPipeline pipeline(pipelineOptions(sources, multiscale));
     std::vector<double> totals, selection, range, problem, estimate, own, store, fusion, confidence, map, overlapped,
         rest, map_background;
     const auto start = std::chrono::steady_clock::now();
@@ -481,6 +495,7 @@ int main(int argc, char** argv) {
   bool map_foreground = false;  // replay: the voxel-map update in the caller's thread
   bool quick = false;
   int replay_count = 10000;
+  Multiscale pipeline_multiscale;
   std::string only;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -494,6 +509,12 @@ int main(int argc, char** argv) {
     else if (a == "--quick") quick = true;
     else if (a == "--replay" && i + 1 < argc) replay_count = std::max(1, std::atoi(argv[++i]));
     else if (a == "--map-foreground") map_foreground = true;
+    else if (a == "--pipeline-multiscale" && i + 1 < argc) {
+      const std::string value = argv[++i];
+      pipeline_multiscale.levels = std::max(1, std::atoi(value.c_str()));
+      const size_t comma = value.find(',');
+      if (comma != std::string::npos) pipeline_multiscale.iterations = std::max(1, std::atoi(value.c_str() + comma + 1));
+    }
     else data = a;
   }
   // --only A,B,...: the named sections only.
@@ -570,7 +591,7 @@ int main(int argc, char** argv) {
     if (wants("map")) online += mapTable(quick ? 12 : 60);
     save();
     if (wants("pipeline")) {
-      online += pipelineTable(quick ? 12 : 60);
+      online += pipelineTable(quick ? 12 : 60, pipeline_multiscale);
       save();
       std::fprintf(stderr, "pipeline done\n");
     }

@@ -38,6 +38,7 @@
 #include "amhmvs_mapping/mapping/depth_confidence.h"
 #include "amhmvs_mapping/mapping/depth_map_fuser.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
+#include "amhmvs_mapping/mvs/coarse_to_fine.h"
 #include "amhmvs_mapping/mvs/cpu_sampler.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 #include "depth_job.h"
@@ -233,6 +234,84 @@ void middleburyMultiscale(const std::string& data) {
   std::printf("INFO  2 scales, CPU/GPU agreement on middlebury Piano: %.2f %% of pixels within 0.1 %% depth "
               "(%.1f ms on the GPU)\n",
               100 * agreement(gpu.depth, cpu.depth, 0.001), gpu.milliseconds);
+}
+
+// The next scale of a coarse-to-fine estimate starts from the coarser
+// scale's planes, carried on the device from the estimator's own outputs
+// (no host round trip): the same map, bit for bit, as when the coarser maps
+// come from the host (a copy the estimator did not make: uploaded first).
+void coarseToFineCarriedOnDevice(const std::string& data) {
+  const OwnedDepthProblem owned = loadProblem(data + "/mvsnet/middlebury2014_Piano", 0, 1);
+  PatchMatchOptions two_scales;
+  two_scales.multiscale_levels = 2;
+  const DepthMap on_device = run(owned.problem, Backend::kCuda, two_scales);
+  int scales = 0;
+  const DepthMap uploaded =
+      mvs::estimateCoarseToFine(two_scales, owned.problem, [&](const PatchMatchOptions& options, const DepthProblem& problem) {
+        ++scales;
+        DepthMap map = run(problem, Backend::kCuda, options);  // a fresh estimator per scale
+        DepthMap copy = map;  // other host memory: the next scale uploads it
+        return copy;
+      });
+  expect(scales == 2 && identical(on_device.depth, uploaded.depth) && identical(on_device.normal, uploaded.normal) &&
+             identical(on_device.cost, uploaded.cost),
+         "2 scales: the finer scale's start carried on the device equals the one uploaded from the host");
+}
+
+// Two scales through the pipeline, every keyframe queued at once, so that a
+// keyframe is fused while the next one is estimated: the coarser scale's
+// outputs must not overwrite the last result being fused. The same map with
+// the overlap as without it.
+void pipelineTwoScalesWithFusionOverlap(const std::string& data) {
+  const std::string folder = data + "/mvsnet/fountain_x0.25";
+  const Scene scene = readInputFolder(folder, 10);
+  struct Outcome {
+    uint64_t fused = 0, points = 0, voxels = 0;
+    double estimate_ms = 0, own_ms = 0;
+    int estimates = 0;
+  };
+  const auto map_with = [&](FusionOverlap overlap) {
+    PipelineOptions options;
+    options.backend = Backend::kCuda;
+    options.estimator.multiscale_levels = 2;
+    options.mapper.map.leaf_size = 0.02;
+    options.queue_size = scene.views.size();
+    options.fusion_overlap = overlap;
+    MappingPipeline pipeline(options);
+    for (const SceneView& view : scene.views) {
+      Keyframe keyframe;
+      keyframe.id = view.id;
+      keyframe.stamp = view.id;
+      keyframe.image = readImage(view.image_path);
+      keyframe.camera = view.camera;
+      pipeline.push(std::move(keyframe));
+    }
+    Outcome outcome;
+    pipeline.runUntilIdle([&](const PipelineOutput& output) {
+      if (!output.result.has_depth) return;
+      ++outcome.estimates;
+      outcome.estimate_ms += output.result.times.estimate_ms;
+      outcome.own_ms += output.result.depth->milliseconds;
+    });
+    const PipelineStats stats = pipeline.stats();
+    outcome.fused = stats.keyframes_fused;
+    outcome.points = stats.map_points_added;
+    outcome.voxels = stats.map_voxels;
+    return outcome;
+  };
+  const Outcome overlapped = map_with(FusionOverlap::kGpu), serial = map_with(FusionOverlap::kOff);
+  char text[300];
+  std::snprintf(text, sizeof(text),
+                "pipeline, 2 scales, fountain x0.25: %lu keyframes fused, %lu points, %lu voxels with a keyframe fused "
+                "during the next estimate; %lu, %lu, %lu without (estimate %.1f ms a depth map, the estimator's own "
+                "%.1f ms)",
+                static_cast<unsigned long>(overlapped.fused), static_cast<unsigned long>(overlapped.points),
+                static_cast<unsigned long>(overlapped.voxels), static_cast<unsigned long>(serial.fused),
+                static_cast<unsigned long>(serial.points), static_cast<unsigned long>(serial.voxels),
+                overlapped.estimate_ms / std::max(1, overlapped.estimates), overlapped.own_ms / std::max(1, overlapped.estimates));
+  expect(overlapped.fused > 0 && overlapped.points > 0 && overlapped.fused == serial.fused &&
+             overlapped.points == serial.points && overlapped.voxels == serial.voxels,
+         text);
 }
 
 // Kernel time per map of the geometric pass (3 iterations from the
@@ -786,6 +865,12 @@ int main(int argc, char** argv) {
       options.num_iterations = 4;
       const DepthMap map = run(problem, Backend::kCuda, options);
       expect(map.depth.width == problem.reference_camera.width, "sanitizer scene ran");
+      // Two scales (160 px: the coarser one is 80 px wide), the finer
+      // scale's start carried on the device.
+      PatchMatchOptions two_scales = options;
+      two_scales.multiscale_levels = 2;
+      const OwnedDepthProblem larger = loadProblem(data + "/mvsnet/fountain_x0.25", 0, 2, 160);
+      expect(run(larger.problem, Backend::kCuda, two_scales).depth.width == 160, "sanitizer: two scales ran");
       // The resident pool's paths too: keyed images, a pool that grows
       // (copying its layers), evictions and a keyed reference.
       FountainImages fountain(data, 96);
@@ -811,6 +896,8 @@ int main(int argc, char** argv) {
     middlebury(data, Backend::kCpu, false);
     middleburyGeometric(data);
     middleburyMultiscale(data);
+    coarseToFineCarriedOnDevice(data);
+    pipelineTwoScalesWithFusionOverlap(data);
     for (const char* name : {"fountain_x0.25", "fountain_x1"}) {
       if (std::ifstream(data + "/mvsnet/" + name + "/pair.txt")) geometricSpeed(data, name);
     }

@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "amhmvs_mapping/eval/depth_metrics.h"
@@ -48,7 +50,7 @@ TEST(CoarseToFine, CoarsestScaleRunsTheFullScheduleFinerOnesRefineTheUpsampledSt
   const DepthMap map = estimateCoarseToFine(options, scene.problem, [&](const PatchMatchOptions& o,
                                                                         const DepthProblem& p) {
     calls.push_back({p.reference_camera.width, p.reference_camera.height, o.num_iterations, o.first_iteration,
-                     o.multiscale_levels, p.prior_depth.data != nullptr});
+                     o.multiscale_levels, p.prior_depth.data != nullptr || p.coarser.has_value()});
     DepthMap out;
     const PinholeCamera& c = p.reference_camera;
     out.depth = ImageF(c.width, c.height, 1, 3.0f);
@@ -56,9 +58,15 @@ TEST(CoarseToFine, CoarsestScaleRunsTheFullScheduleFinerOnesRefineTheUpsampledSt
     for (size_t i = 2; i < out.normal.data.size(); i += 3) out.normal.data[i] = -1.0f;
     out.milliseconds = 10;
     out.compute_milliseconds = 4;
-    if (p.prior_depth.data) {
-      // The coarse fronto-parallel 3 m planes, upsampled: 3 m everywhere.
-      for (size_t i = 0; i < p.prior_depth.pixelCount(); ++i) EXPECT_NEAR(p.prior_depth.data[i], 3.0f, 1e-5);
+    EXPECT_FALSE(p.prior_depth.data);  // the finer scale starts from the coarser one's planes
+    if (p.coarser) {
+      // The coarser scale's maps and image, as the backend carries them: the
+      // coarse fronto-parallel 3 m planes, upsampled: 3 m everywhere.
+      const DepthProblem::CoarserScale& coarser = *p.coarser;
+      EXPECT_EQ(coarser.camera.width, 80);
+      const PlaneMap carried = resamplePlanes(coarser.depth, coarser.normal, coarser.camera, coarser.image,
+                                              p.reference_camera, p.reference_image);
+      for (size_t i = 0; i < carried.depth.data.size(); ++i) EXPECT_NEAR(carried.depth.data[i], 3.0f, 1e-5);
     }
     return out;
   });
@@ -85,7 +93,7 @@ TEST(CoarseToFine, CoarsestScaleRunsTheFullScheduleFinerOnesRefineTheUpsampledSt
   scene.problem.prior_normal = normal;
   const auto record = [&](const PatchMatchOptions& o, const DepthProblem& p) {
     calls.push_back({p.reference_camera.width, p.reference_camera.height, o.num_iterations, o.first_iteration,
-                     o.multiscale_levels, p.prior_depth.data != nullptr});
+                     o.multiscale_levels, p.prior_depth.data != nullptr || p.coarser.has_value()});
     DepthMap out;
     out.depth = ImageF(p.reference_camera.width, p.reference_camera.height, 1, 3.0f);
     out.normal = ImageF(p.reference_camera.width, p.reference_camera.height, 3, -0.5f);
@@ -109,6 +117,73 @@ TEST(CoarseToFine, DepthProblemPriorIterationsAreChecked) {
   SyntheticProblem scene = makeSyntheticProblem(64, 48, 1);
   scene.problem.prior_iterations = -1;
   EXPECT_NE(scene.problem.validate().find("prior_iterations -1 must be in 0..100"), std::string::npos);
+}
+
+TEST(CoarseToFine, DepthProblemChecksTheCoarserScaleAndReservedKeys) {
+  SyntheticProblem scene = makeSyntheticProblem(64, 48, 1);
+  const ImageF depth(32, 24, 1, 3.0f), normal(32, 24, 3, 0.0f);
+  const ImageU8 image(32, 24, 1, 100);
+  scene.problem.coarser = DepthProblem::CoarserScale{scene.problem.reference_camera.resized(32, 24), image, depth, normal};
+  EXPECT_EQ(scene.problem.validate(), "");
+  scene.problem.coarser->normal = depth;  // 1 channel
+  EXPECT_NE(scene.problem.validate().find("coarser scale: image, depth and normal maps must be 1, 1 and 3 channels"),
+            std::string::npos);
+  scene.problem.coarser->normal = normal;
+  const ImageF prior_depth(64, 48, 1, 3.0f), prior_normal(64, 48, 3, 0.0f);
+  scene.problem.prior_depth = prior_depth;
+  scene.problem.prior_normal = prior_normal;
+  EXPECT_NE(scene.problem.validate().find("a coarser scale's planes and a prior depth map cannot both"),
+            std::string::npos);
+  scene.problem.coarser.reset();
+  scene.problem.prior_depth = scene.problem.prior_normal = ImageViewF();
+  scene.problem.source_keys = {kScaledImageKeyBase};
+  EXPECT_NE(scene.problem.validate().find("source view 0: image key " + std::to_string(kScaledImageKeyBase) +
+                                          " is reserved"),
+            std::string::npos);
+}
+
+// Copies are made once per key and size, with keys of their own, and are
+// gone with the key.
+TEST(ScaledImageCache, MakesEachCopyOnceAndForgetsItWithItsKey) {
+  const ImageU8 image = test::randomImage(64, 48, 1, 5);
+  ScaledImageCache cache;
+  const ScaledImageCache::Scaled half = cache.get(image, 7, 32, 24);
+  EXPECT_EQ(std::vector<uint8_t>(half.image.data, half.image.data + 32 * 24), resizeArea(image, 32, 24).data);
+  EXPECT_LE(half.key, kScaledImageKeyBase + 10);
+  const ScaledImageCache::Scaled again = cache.get(image, 7, 32, 24);
+  EXPECT_EQ(again.image.data, half.image.data);
+  EXPECT_EQ(again.key, half.key);
+  const ScaledImageCache::Scaled quarter = cache.get(image, 7, 16, 12);
+  const ScaledImageCache::Scaled other = cache.get(image, 8, 32, 24);
+  EXPECT_NE(quarter.key, half.key);
+  EXPECT_NE(other.key, half.key);
+  EXPECT_EQ(cache.bytes(), 2u * 32 * 24 + 16 * 12);
+  std::vector<int64_t> forgotten = cache.forget(7);
+  std::sort(forgotten.begin(), forgotten.end());
+  EXPECT_EQ(forgotten, (std::vector<int64_t>{half.key, quarter.key}));
+  EXPECT_TRUE(cache.forget(7).empty());
+  EXPECT_EQ(cache.bytes(), 32u * 24);
+  EXPECT_NE(cache.get(image, 7, 32, 24).key, half.key);  // made again, a new key
+  cache.forgetAll();
+  EXPECT_EQ(cache.bytes(), 0u);
+}
+
+// Keyed images take their coarser copies from the estimator's cache: the same
+// depth map as a problem without keys, whose copies are made per estimate.
+TEST(CoarseToFine, KeyedImagesGiveTheSameMapFromTheCache) {
+  SyntheticProblem scene = makeSyntheticProblem(160, 120, 2);
+  PatchMatchOptions options;
+  options.multiscale_levels = 2;
+  options.num_iterations = 3;
+  DepthEstimator estimator(options, Backend::kCpu);
+  const DepthMap unkeyed = estimator.estimate(scene.problem);
+  scene.problem.reference_key = 0;
+  scene.problem.source_keys = {1, 2};
+  const DepthMap keyed = estimator.estimate(scene.problem);
+  const DepthMap cached = estimator.estimate(scene.problem);
+  EXPECT_EQ(keyed.depth.data, unkeyed.depth.data);
+  EXPECT_EQ(cached.depth.data, unkeyed.depth.data);
+  EXPECT_EQ(cached.normal.data, unkeyed.normal.data);
 }
 
 // A slanted wall whose texture is faint and smooth (features of 0.6 m at

@@ -59,6 +59,31 @@ TEST(ResizeArea, IntegerFactorIsBoxMeanRoundedToNearest) {
   }
 }
 
+// Whole box factors of any shape and channel count (the halving of
+// coarse-to-fine scales among them): the box mean, rounded half up.
+TEST(ResizeArea, AnyWholeFactorIsBoxMeanRoundedHalfUp) {
+  struct Case {
+    int width, height, channels, fx, fy;
+  };
+  for (const Case& k : {Case{640, 480, 1, 2, 2}, Case{30, 14, 1, 3, 2}, Case{21, 12, 3, 1, 3}, Case{10, 10, 2, 5, 1}}) {
+    const ImageU8 in = randomImage(k.width, k.height, k.channels, 7);
+    const ImageU8 out = resizeArea(in, k.width / k.fx, k.height / k.fy);
+    const int area = k.fx * k.fy;
+    for (int y = 0; y < out.height; ++y) {
+      for (int x = 0; x < out.width; ++x) {
+        for (int c = 0; c < k.channels; ++c) {
+          int sum = 0;
+          for (int dy = 0; dy < k.fy; ++dy) {
+            for (int dx = 0; dx < k.fx; ++dx) sum += in.at(k.fx * x + dx, k.fy * y + dy, c);
+          }
+          ASSERT_EQ(out.at(x, y, c), (2 * sum + area) / (2 * area))
+              << k.width << "x" << k.height << " by " << k.fx << "x" << k.fy << " at " << x << "," << y << "," << c;
+        }
+      }
+    }
+  }
+}
+
 TEST(ResizeArea, HalvesRoundUp) {
   ImageU8 in(2, 2, 1);
   in.data = {0, 1, 0, 1};  // mean 0.5 -> 1

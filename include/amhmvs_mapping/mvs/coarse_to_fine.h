@@ -24,6 +24,7 @@
 
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 #include "amhmvs_mapping/mvs/plane_map.h"
+#include "amhmvs_mapping/mvs/scaled_image_cache.h"
 
 namespace amhmvs {
 namespace mvs {
@@ -43,9 +44,10 @@ using ScaleEstimate = std::function<DepthMap(const PatchMatchOptions&, const Dep
 
 // Steps 1-3 above with options.multiscale_levels scales (fewer when the
 // images are small; a single scale runs `estimate` once). The result's times
-// are the sums over the scales.
+// are the sums over the scales. With a cache, the coarser copies of keyed
+// images are made once and keep keys of their own (the cache's).
 DepthMap estimateCoarseToFine(const PatchMatchOptions& options, const DepthProblem& problem,
-                              const ScaleEstimate& estimate);
+                              const ScaleEstimate& estimate, ScaledImageCache* cache = nullptr);
 
 }  // namespace mvs
 }  // namespace amhmvs

@@ -18,12 +18,14 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
+#include "amhmvs_mapping/mvs/scaled_image_cache.h"
 
 namespace amhmvs {
 
@@ -61,6 +63,18 @@ struct DepthProblem {
   // near the answer already. With several scales (multiscale), the prior
   // starts the coarsest one.
   int prior_iterations = 0;
+  // Coarse-to-fine (mvs/coarse_to_fine.h): the estimate of this view at the
+  // next coarser scale, whose planes, carried to this scale by
+  // resamplePlanes (mvs/plane_map.h), start this estimate (instead of
+  // prior_depth / prior_normal, which must then be empty). The backend
+  // carries them: the CUDA backend on the device, from the coarser estimate
+  // it has just made.
+  struct CoarserScale {
+    PinholeCamera camera;
+    ImageViewU8 image;          // grey, the camera's size
+    ImageViewF depth, normal;   // 1 and 3 channels, the camera's size
+  };
+  std::optional<CoarserScale> coarser;
 
   // Empty when the problem can be solved; otherwise what is wrong (which view,
   // which value).
@@ -189,6 +203,8 @@ class DepthEstimator {
   EstimatorResources resources_;
   // Device state (image pool, work buffers, stream): a cache that estimate()
   // fills, hence mutable; mutex_ serialises its users.
+  // Coarse-to-fine estimates: the coarser copies of keyed images, kept until forget(key).
+  mutable mvs::ScaledImageCache scaled_images_;
   mutable std::mutex mutex_;
   mutable std::unique_ptr<mvs::CudaState, mvs::CudaStateDeleter> cuda_;
 };

@@ -48,6 +48,13 @@ AMHMVS_HD float reciprocal(float x) {
 #endif
 }
 AMHMVS_HD float nanf_hd() { return nanf(""); }
+AMHMVS_HD bool isfinite_hd(float v) {
+#if defined(__CUDA_ARCH__)
+  return isfinite(v);
+#else
+  return std::isfinite(v);
+#endif
+}
 
 AMHMVS_HD Vec3 normalized(Vec3 a) {
   const float inv = 1.0f / sqrtf(dot(a, a));
