@@ -83,6 +83,13 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
   return fields;
 }
 
+PatchMatchOptions onlineEstimatorOptions() {
+  PatchMatchOptions options;
+  options.multiscale_levels = 2;
+  options.multiscale_iterations = 1;
+  return options;
+}
+
 std::string PipelineOptions::validate() const {
   std::ostringstream out;
   const std::string mapper_problems = mapper.validate();
@@ -126,10 +133,10 @@ MappingPipeline::MappingPipeline(const PipelineOptions& options, Log log) : opti
   }
   EstimateFunction fallback;
   if (backend_ != Backend::kCpu) {
-    fallback = [this](const DepthProblem& problem) {
-      if (!cpu_estimator_) cpu_estimator_.reset(new DepthEstimator(options_.estimator, Backend::kCpu));
-      return cpu_estimator_->estimate(problem);
-    };
+    // Made now, not at the first failure: forgetEvicted() tells it too (its
+    // coarser image copies), from another thread than the estimate's.
+    cpu_estimator_.reset(new DepthEstimator(options_.estimator, Backend::kCpu));
+    fallback = [this](const DepthProblem& problem) { return cpu_estimator_->estimate(problem); };
   }
   init([this](const DepthProblem& problem) { return estimator_->estimate(problem); }, fallback,
        backendName(backend_));
@@ -183,6 +190,7 @@ void MappingPipeline::forgetEvicted(const std::vector<int64_t>& evicted) {
   // and depth map leave the GPU too.
   for (int64_t id : evicted) {
     if (estimator_) estimator_->forget(id);
+    if (cpu_estimator_) cpu_estimator_->forget(id);
     const auto fused = fused_keys_.find(id);
     if (fused != fused_keys_.end()) {
       fuser_->forget(fused->second);
@@ -436,6 +444,7 @@ void MappingPipeline::applyPending() {
   if (reset) {
     mapper_->reset();
     if (estimator_) estimator_->forgetAll();  // keyframe ids may be reused
+    if (cpu_estimator_) cpu_estimator_->forgetAll();
     if (fuser_) fuser_->forgetAll();
     fused_keys_.clear();
     std::lock_guard<std::mutex> stats(stats_mutex_);
@@ -449,7 +458,7 @@ void MappingPipeline::applyPending() {
       if (estimator_) {  // an injected estimator (tests) stays as it is
         withdrawDeviceOffers(/*keep_last=*/false);  // the old estimator's buffers go with it
         estimator_.reset(new DepthEstimator(next->second, estimator_->backend(), options_.resources));
-        cpu_estimator_.reset();
+        if (cpu_estimator_) cpu_estimator_.reset(new DepthEstimator(next->second, Backend::kCpu));
       }
       options_.mapper = mapper_->options();
       options_.estimator = next->second;

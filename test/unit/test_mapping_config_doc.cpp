@@ -1,6 +1,6 @@
 // config/mapping.yaml documents every option of the option tables, with the
-// table's default value: the estimator's under `estimator:`, the pose
-// refinement's under `pose_refinement:`.
+// nodelet's default value: the online estimator's (onlineEstimatorOptions())
+// under `estimator:`, the pose refinement's under `pose_refinement:`.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -8,6 +8,7 @@
 #include <sstream>
 #include <string>
 
+#include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mapping/pose_refinement.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
 
@@ -46,7 +47,7 @@ void expectDocumented(const std::string& section, const std::vector<amhmvs::Opti
 }
 
 TEST(MappingConfigDoc, EveryEstimatorOptionDocumentedWithItsDefault) {
-  expectDocumented("estimator", amhmvs::patchMatchOptionTable());
+  expectDocumented("estimator", amhmvs::patchMatchOptionTable(), amhmvs::onlineEstimatorOptions());
 }
 
 TEST(MappingConfigDoc, EveryPoseRefinementOptionDocumentedWithItsDefault) {
