@@ -83,13 +83,6 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
   return fields;
 }
 
-PatchMatchOptions onlineEstimatorOptions() {
-  PatchMatchOptions options;
-  options.multiscale_levels = 2;
-  options.multiscale_iterations = 1;
-  return options;
-}
-
 std::string PipelineOptions::validate() const {
   std::ostringstream out;
   const std::string mapper_problems = mapper.validate();

@@ -12,9 +12,9 @@
 //                                           fusion, map, pipeline, replay, pose)
 //                         [--replay N]     keyframes of the memory replay (10000)
 //                         [--map-foreground] the replay updates the voxel map in its own thread
-//                         [--pipeline-multiscale N[,K]] the pipeline's estimator at N scales,
-//                                           K iterations at the finer ones (default:
-//                                           onlineEstimatorOptions(), 2,1; 1: the paper's single scale)
+//                         [--pipeline-multiscale N[,K]] the pipeline's estimator at N scales (1),
+//                                           K iterations at the finer ones (2); 2,1: the
+//                                           setting for real video (README)
 //
 // Online pipeline tables (MappingPipeline, GPU when usable):
 //   fusion:   fuseDepthMaps (CPU, OpenMP, all cores) of a 640x480 keyframe
@@ -283,8 +283,8 @@ std::string mapTable(int count) {
 
 // Coarse-to-fine settings of the pipeline table's estimator.
 struct Multiscale {
-  int levels = onlineEstimatorOptions().multiscale_levels;
-  int iterations = onlineEstimatorOptions().multiscale_iterations;
+  int levels = 1;  // the pipeline's default: the paper's single scale
+  int iterations = PatchMatchOptions().multiscale_iterations;
 };
 
 PipelineOptions pipelineOptions(int sources, Multiscale multiscale = Multiscale()) {

@@ -148,8 +148,8 @@ TEST(MapTool, PoseRefinementOptions) {
 
 TEST(MapTool, ParsesTheLowTextureAndNeighbourDepthSwitches) {
   const MapToolOptions defaults = parseMapToolArguments({});
-  EXPECT_EQ(defaults.pipeline.estimator.multiscale_levels, 2);  // onlineEstimatorOptions()
-  EXPECT_EQ(defaults.pipeline.estimator.multiscale_iterations, 1);
+  EXPECT_EQ(defaults.pipeline.estimator.multiscale_levels, 1);  // the paper's single scale
+  EXPECT_EQ(defaults.pipeline.estimator.multiscale_iterations, 2);
   EXPECT_FALSE(defaults.pipeline.mapper.neighbour_depth.start_from_neighbours);
   EXPECT_FALSE(defaults.pipeline.mapper.neighbour_depth.geometric_refinement);
   const MapToolOptions options = parseMapToolArguments(

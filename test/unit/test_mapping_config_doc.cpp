@@ -1,6 +1,6 @@
 // config/mapping.yaml documents every option of the option tables, with the
-// nodelet's default value: the online estimator's (onlineEstimatorOptions())
-// under `estimator:`, the pose refinement's under `pose_refinement:`.
+// table's default value: the estimator's under `estimator:`, the pose
+// refinement's under `pose_refinement:`.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -8,7 +8,6 @@
 #include <sstream>
 #include <string>
 
-#include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mapping/pose_refinement.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
 
@@ -47,7 +46,7 @@ void expectDocumented(const std::string& section, const std::vector<amhmvs::Opti
 }
 
 TEST(MappingConfigDoc, EveryEstimatorOptionDocumentedWithItsDefault) {
-  expectDocumented("estimator", amhmvs::patchMatchOptionTable(), amhmvs::onlineEstimatorOptions());
+  expectDocumented("estimator", amhmvs::patchMatchOptionTable());
 }
 
 TEST(MappingConfigDoc, EveryPoseRefinementOptionDocumentedWithItsDefault) {

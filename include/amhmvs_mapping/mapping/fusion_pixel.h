@@ -22,13 +22,7 @@ AMHMVS_HD Vec3d operator*(double s, Vec3d a) { return {s * a.x, s * a.y, s * a.z
 AMHMVS_HD Vec3d operator/(Vec3d a, double s) { return {a.x / s, a.y / s, a.z / s}; }
 AMHMVS_HD double dot(Vec3d a, Vec3d b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 AMHMVS_HD double norm(Vec3d a) { return sqrt(dot(a, a)); }
-AMHMVS_HD bool finite(double v) {
-#if defined(__CUDA_ARCH__)
-  return isfinite(v);
-#else
-  return std::isfinite(v);
-#endif
-}
+AMHMVS_HD bool finite(double v) { return mvs::isfinite_hd(v); }
 AMHMVS_HD bool finite(Vec3d a) { return finite(a.x) && finite(a.y) && finite(a.z); }
 
 // Row-major 3x3.

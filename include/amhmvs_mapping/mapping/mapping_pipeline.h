@@ -69,21 +69,14 @@ namespace amhmvs {
 // later, seconds on the CPU).
 enum class FusionOverlap { kOff, kGpu, kAlways };
 
-// The estimator's options for online mapping (the nodelet, amhmvs_map): the
-// paper's (PatchMatchOptions) with the coarse-to-fine low-texture aid, 2
-// scales and 1 iteration at the finer one. Redkitchen, 60 frames at 320 px,
-// CPU, against the paper's single scale: within 5 / 10 % of the Kinect depth
-// 43.8 / 61.4 instead of 39.2 / 56.3 % of the pixels (published: 89.7 % at
-// 34.5 % completeness instead of 88.6 % at 28.2 %); map 7158 instead of 4436
-// points, 91.2 / 91.5 % within 5 cm; a third of the CPU time. GPU (H200,
-// 640x480): 89-91 / 73-79 keyframes/s with 4 / 8 sources against 94-96 /
-// 63-70. Exact poses lose a little at 1 % (fountain x0.25: 98.23 against
-// 98.43 % of the sparse points).
-PatchMatchOptions onlineEstimatorOptions();
-
 struct PipelineOptions {
   OnlineMapperOptions mapper;
-  PatchMatchOptions estimator = onlineEstimatorOptions();
+  // The paper's defaults. Real video gains from the coarse-to-fine aid
+  // (multiscale_levels 2, multiscale_iterations 1: README "Real tracked
+  // video"; on the GPU as fast as one scale since session 11); it is not the
+  // default because exact cameras lose at the 1 % level with it (the
+  // fountain bag's map 88.4 against 89.8 % within 1 % of the sparse points).
+  PatchMatchOptions estimator;
   Backend backend = Backend::kAuto;      // kAuto: CUDA when a GPU is usable, else the CPU (logged)
   EstimatorResources resources;          // GPU: device-memory budget of resident keyframe images
   FuserResources fusion_resources;       // GPU: device-memory budget of resident depth maps (fusion)

@@ -48,7 +48,7 @@ AMHMVS_HD float reciprocal(float x) {
 #endif
 }
 AMHMVS_HD float nanf_hd() { return nanf(""); }
-AMHMVS_HD bool isfinite_hd(float v) {
+AMHMVS_HD bool isfinite_hd(double v) {
 #if defined(__CUDA_ARCH__)
   return isfinite(v);
 #else

@@ -9,7 +9,6 @@
 #include <ros/node_handle.h>
 
 #include "amhmvs_mapping/mapping/keyframe_picker.h"
-#include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mapping/online_mapper.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
 
@@ -47,7 +46,7 @@ struct MappingConfig {
   // Downscale so that max(width, height) <= this; 0 = full size; -1 = auto:
   // full size on the GPU, kCpuAutoMaxImageSize on the CPU (effectiveMaxImageSize).
   int max_image_size = -1;
-  amhmvs::PatchMatchOptions estimator = amhmvs::onlineEstimatorOptions();  // ~estimator/<option name>
+  amhmvs::PatchMatchOptions estimator;  // ~estimator/<option name>
 
   // --- Mapping core: ~store/, ~sources/, ~depth_range/, ~fusion/, ~map/ ---
   amhmvs::OnlineMapperOptions mapper = defaultMapperOptions();
