@@ -10,7 +10,6 @@
 
 #include "../src/mvs/backends.h"
 #include "amhmvs_mapping/mvs/plane_map.h"
-#include "amhmvs_mapping/mvs/plane_resampling_pixel.h"
 #include "cuda_check.h"
 #include "device_image_pool.h"
 
@@ -300,10 +299,6 @@ void placeImages(CudaState& state, const DepthProblem& problem, PatchMatchParams
     std::memcpy(state.reference_staging.get(), reference.data, pixels);
     state.work.reference.uploadAsync(state.reference_staging.get(), pixels, stream);
   }
-}
-
-RayCamera rayCamera(const PinholeCamera& camera) {
-  return {camera.fx, camera.fy, camera.cx, camera.cy, camera.width, camera.height};
 }
 
 // The start of this scale of a coarse-to-fine estimate: the coarser scale's

@@ -6,15 +6,10 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mvs/hd.h"
-#include "amhmvs_mapping/mvs/plane_resampling_pixel.h"
 
 namespace amhmvs {
 namespace mvs {
 namespace {
-
-RayCamera rayCamera(const PinholeCamera& camera) {
-  return {camera.fx, camera.fy, camera.cx, camera.cy, camera.width, camera.height};
-}
 
 void setNormal(ImageF* normal, int x, int y, Vec3 n) {
   normal->at(x, y, 0) = n.x;

@@ -201,10 +201,10 @@ class DepthEstimator {
   PatchMatchOptions options_;
   Backend backend_;
   EstimatorResources resources_;
-  // Device state (image pool, work buffers, stream): a cache that estimate()
-  // fills, hence mutable; mutex_ serialises its users.
   // Coarse-to-fine estimates: the coarser copies of keyed images, kept until forget(key).
   mutable mvs::ScaledImageCache scaled_images_;
+  // Device state (image pool, work buffers, stream): a cache that estimate()
+  // fills, hence mutable; mutex_ serialises its users.
   mutable std::mutex mutex_;
   mutable std::unique_ptr<mvs::CudaState, mvs::CudaStateDeleter> cuda_;
 };

@@ -11,6 +11,7 @@
 
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
+#include "amhmvs_mapping/mvs/plane_resampling_pixel.h"
 
 namespace amhmvs {
 namespace mvs {
@@ -29,6 +30,9 @@ struct PlaneMap {
 // largest, so that they never all underflow). NaN where none of those 3x3
 // pixels has a valid plane.
 constexpr float kResamplingSigmaIntensity = 10.0f;
+inline RayCamera rayCamera(const PinholeCamera& camera) {
+  return {camera.fx, camera.fy, camera.cx, camera.cy, camera.width, camera.height};
+}
 PlaneMap resamplePlanes(const ImageViewF& from_depth, const ImageViewF& from_normal, const PinholeCamera& from_camera,
                         const ImageViewU8& from_image, const PinholeCamera& to_camera, const ImageViewU8& to_image,
                         float sigma_intensity = kResamplingSigmaIntensity);
