@@ -250,10 +250,45 @@ struct WorkBuffers {
 
 class CudaState {
  public:
-  explicit CudaState(const EstimatorResources& resources) : pool(resources.device_image_budget_bytes) {}
+  explicit CudaState(const EstimatorResources& resources)
+      : budget_bytes(resources.device_image_budget_bytes), pool(budget_bytes), coarser_pool(0) {}
 
+  // The pool of an estimate's images: coarse-to-fine's coarser copies have
+  // their own, with slots of their size (in the full-size pool a quarter-size
+  // copy took a whole slot, and the first full-size estimate after it grew
+  // the slots and dropped every resident image). Once coarser copies are
+  // used, they get a fifth of the budget: as many images as the other four
+  // fifths hold at twice their width and height.
+  cuda::DeviceImagePool& poolFor(CudaOutputUse use) {
+    if (use == CudaOutputUse::kResult) return pool;
+    if (!coarser_pool_used) {
+      coarser_pool_used = true;
+      pool.setBudget(budget_bytes - budget_bytes / 5);
+      coarser_pool.setBudget(budget_bytes / 5);
+    }
+    return coarser_pool;
+  }
+  void forget(int64_t key) {
+    pool.forget(key);
+    coarser_pool.forget(key);
+  }
+  void forgetAll() {
+    pool.forgetAll();
+    coarser_pool.forgetAll();
+  }
+  DeviceCacheStats stats() const {
+    DeviceCacheStats both = pool.stats();
+    both.budget_bytes = budget_bytes;
+    both.add(coarser_pool.stats());
+    both.work_bytes = work.bytes();
+    return both;
+  }
+
+  const size_t budget_bytes;
   cuda::CudaStream stream;
-  cuda::DeviceImagePool pool;
+  cuda::DeviceImagePool pool;          // full-size images (one per scale-1 estimate)
+  cuda::DeviceImagePool coarser_pool;  // coarse-to-fine's coarser copies
+  bool coarser_pool_used = false;
   WorkBuffers work;
   cuda::PinnedBuffer<uint8_t> source_staging, reference_staging;
   cuda::CudaEvent start, uploaded, stop;
@@ -262,23 +297,19 @@ class CudaState {
 
 CudaState* createCudaState(const EstimatorResources& resources) { return new CudaState(resources); }
 void destroyCudaState(CudaState* state) { delete state; }
-void forgetOnCuda(CudaState& state, int64_t key) { state.pool.forget(key); }
-void forgetAllOnCuda(CudaState& state) { state.pool.forgetAll(); }
+void forgetOnCuda(CudaState& state, int64_t key) { state.forget(key); }
+void forgetAllOnCuda(CudaState& state) { state.forgetAll(); }
 
 DeviceDepthMap cudaLastOutputs(const CudaState& state) { return state.last_outputs; }
 
-DeviceCacheStats cudaCacheStats(const CudaState& state) {
-  DeviceCacheStats stats = state.pool.stats();
-  stats.work_bytes = state.work.bytes();
-  return stats;
-}
+DeviceCacheStats cudaCacheStats(const CudaState& state) { return state.stats(); }
 
 namespace {
 
 // The images of `problem` in the pool (sources, then a keyed reference) and
 // the reference in the linear buffer the kernels read; sets each source's
 // layer in `P`. Everything is queued on the state's stream.
-void placeImages(CudaState& state, const DepthProblem& problem, PatchMatchParams* P) {
+void placeImages(CudaState& state, cuda::DeviceImagePool& pool, const DepthProblem& problem, PatchMatchParams* P) {
   const cudaStream_t stream = state.stream.get();
   std::vector<cuda::PoolRequest> requests;
   for (size_t j = 0; j < problem.source_images.size(); ++j) {
@@ -287,13 +318,13 @@ void placeImages(CudaState& state, const DepthProblem& problem, PatchMatchParams
   const bool keyed_reference = problem.reference_key != kNoImageKey;
   // A keyed reference is a later keyframe's source: upload it once, into the pool.
   if (keyed_reference) requests.push_back({problem.reference_image, problem.reference_key});
-  const std::vector<int> layers = state.pool.place(requests, stream, &state.source_staging);
+  const std::vector<int> layers = pool.place(requests, stream, &state.source_staging);
   for (int j = 0; j < P->num_sources; ++j) P->sources[j].layer = layers[j];
 
   const ImageViewU8& reference = problem.reference_image;
   const size_t pixels = reference.pixelCount();
   if (keyed_reference) {
-    state.pool.copyToLinear(layers.back(), reference.width, reference.height, state.work.reference.get(), stream);
+    pool.copyToLinear(layers.back(), reference.width, reference.height, state.work.reference.get(), stream);
   } else {
     state.reference_staging.reserve(pixels);
     std::memcpy(state.reference_staging.get(), reference.data, pixels);
@@ -349,6 +380,7 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
   const bool result = use == CudaOutputUse::kResult;
   const int output_set = work.next_output;
   OutputBuffers& output = result ? work.outputs[output_set] : work.intermediate;
+  cuda::DeviceImagePool& pool = state.poolFor(use);
   DepthMap out;
   state.last_outputs = DeviceDepthMap();
   // A coarser scale estimated here just before: its maps are on the device.
@@ -360,7 +392,7 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
     state.start.record(stream);
     work.reserve(pixels);
     output.reserve(pixels);
-    placeImages(state, problem, &P);
+    placeImages(state, pool, problem, &P);
     // Host buffers live until the stream is synchronised below.
     const std::vector<float> source_depths = concatenateSourceDepths(problem, &P);
     if (!source_depths.empty()) {
@@ -378,7 +410,7 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
       P.prior_normal = work.prior_normal.get();
     }
     const PixelState pixel_state{work.planes.get(), work.costs.get(), work.selected.get(), work.best_view.get()};
-    const GpuSampler sampler{work.reference.get(), width, height, state.pool.texture()};
+    const GpuSampler sampler{work.reference.get(), width, height, pool.texture()};
     state.uploaded.record(stream);
 
     if (isPaperWindow(P.cost)) {
@@ -408,18 +440,18 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
     }
     state.stop.record(stream);
     state.stream.synchronize();
-    state.pool.finish();
+    pool.finish();
   } catch (...) {
     // Nothing half-uploaded may stay resident; the stream must be idle
     // before the staging memory is reused.
     cudaStreamSynchronize(stream);
-    state.pool.finish();
-    state.pool.forgetAll();
+    pool.finish();
+    pool.forgetAll();
     throw;
   }
   out.milliseconds = state.stop.millisecondsSince(state.start);
   out.compute_milliseconds = state.stop.millisecondsSince(state.uploaded);
-  out.gpu_memory_bytes = state.pool.stats().pool_bytes + work.bytes();
+  out.gpu_memory_bytes = state.pool.stats().pool_bytes + state.coarser_pool.stats().pool_bytes + work.bytes();
   if (!result) {
     work.intermediate_host_depth = out.depth.data.data();
     work.intermediate_width = width;

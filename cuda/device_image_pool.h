@@ -120,6 +120,9 @@ class DeviceImagePool {
     while (!slot_of_key_.empty() && slot_of_key_.size() > budgetSlots()) evict(leastRecentlyUsed());
   }
 
+  // A new budget holds from the next finish() on.
+  void setBudget(size_t budget_bytes) { budget_bytes_ = budget_bytes; }
+
   void forget(int64_t key) {
     const auto found = slot_of_key_.find(key);
     if (found == slot_of_key_.end()) return;

@@ -576,6 +576,47 @@ void residentPool(const std::string& data) {
   expect(identicalMaps(recovered, unkeyed.estimate(withoutKeys(problem))), "the estimator works after that refusal");
 }
 
+// Coarse-to-fine's coarser copies in their own pool (slots of their size):
+// with room, every image and every half-size copy stays resident, nothing
+// evicted, a quarter more bytes than one scale; within a budget of 5
+// full-size images, 4 of each (the copies' fifth of the budget holds as many
+// as the rest). The maps do not depend on the budget.
+void coarserCopiesPool(const std::string& data) {
+  FountainImages fountain(data, 384);
+  PatchMatchOptions one_scale, two_scales;
+  one_scale.num_iterations = two_scales.num_iterations = 3;
+  two_scales.multiscale_levels = 2;
+  const size_t slot = 384 * 256;
+  EstimatorResources roomy, tight;
+  roomy.device_image_budget_bytes = size_t(64) << 20;
+  tight.device_image_budget_bytes = 5 * slot;
+  DepthEstimator single(one_scale, Backend::kCuda, roomy), double_roomy(two_scales, Backend::kCuda, roomy),
+      double_tight(two_scales, Backend::kCuda, tight);
+  bool same = true, within_budget = true;
+  for (const SceneView& view : fountain.scene.views) {
+    const DepthProblem problem = fountain.images.makeProblem(view.id);
+    single.estimate(problem);
+    same &= identicalMaps(double_roomy.estimate(problem), double_tight.estimate(problem));
+    const DeviceCacheStats stats = double_tight.deviceCacheStats();
+    within_budget &= stats.resident_bytes <= stats.budget_bytes;
+  }
+  const DeviceCacheStats one = single.deviceCacheStats(), two = double_roomy.deviceCacheStats(),
+                         tight_two = double_tight.deviceCacheStats();
+  const size_t views = fountain.scene.views.size();
+  char text[400];
+  std::snprintf(text, sizeof(text),
+                "coarser copies in their own pool, fountain 384x256, 2 scales: %zu images resident in %zu bytes, %lu "
+                "evictions (one scale: %zu in %zu); within 5 images' bytes %zu resident in %zu bytes (budget %zu), "
+                "%lu evictions, maps identical: %s",
+                two.resident_images, two.resident_bytes, static_cast<unsigned long>(two.evictions),
+                one.resident_images, one.resident_bytes, tight_two.resident_images, tight_two.resident_bytes,
+                tight_two.budget_bytes, static_cast<unsigned long>(tight_two.evictions), same ? "yes" : "no");
+  expect(same && within_budget && one.resident_images == views && two.evictions == 0 &&
+             two.resident_images == 2 * views && two.resident_bytes == views * slot + views * slot / 4 &&
+             tight_two.resident_images == 8 && tight_two.resident_bytes == 4 * slot + 4 * slot / 4,
+         text);
+}
+
 void determinism(const std::string& data) {
   const OwnedDepthProblem owned = loadProblem(data + "/mvsnet/fountain_x0.25", 3, 10, 384);
   const DepthProblem& problem = owned.problem;
@@ -888,9 +929,14 @@ int main(int argc, char** argv) {
       FountainImages fountain(data, 96);
       EstimatorResources resources;
       resources.device_image_budget_bytes = 6 * 96 * 64;
-      DepthEstimator pooled(options, Backend::kCuda, resources);
-      for (int id : {0, 1, 2, 3, 9, 10}) pooled.estimate(fountain.images.makeProblem(id));
-      expect(pooled.deviceCacheStats().evictions > 0, "sanitizer: resident pool with evictions ran");
+      DepthEstimator pooled(options, Backend::kCuda, resources), pooled_two_scales(two_scales, Backend::kCuda, resources);
+      for (int id : {0, 1, 2, 3, 9, 10}) {
+        const DepthProblem keyed = fountain.images.makeProblem(id);
+        pooled.estimate(keyed);
+        pooled_two_scales.estimate(keyed);  // the coarser copies' pool too
+      }
+      expect(pooled.deviceCacheStats().evictions > 0 && pooled_two_scales.deviceCacheStats().evictions > 0,
+             "sanitizer: resident pools with evictions ran (one and two scales)");
       gpuFusion(96, 72);
       gpuAgreement(96, 72);
       fusionFromEstimatorOutputs(data, 96);
@@ -909,6 +955,7 @@ int main(int argc, char** argv) {
     middleburyGeometric(data);
     middleburyMultiscale(data);
     coarseToFineCarriedOnDevice(data);
+    coarserCopiesPool(data);
     pipelineTwoScalesWithFusionOverlap(data);
     for (const char* name : {"fountain_x0.25", "fountain_x1"}) {
       if (std::ifstream(data + "/mvsnet/" + name + "/pair.txt")) geometricSpeed(data, name);

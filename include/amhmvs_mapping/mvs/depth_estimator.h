@@ -157,6 +157,19 @@ struct DeviceCacheStats {
   size_t slot_bytes = 0;         // one slot: the largest image seen
   size_t pool_bytes = 0;         // the whole image pool (all slots)
   size_t work_bytes = 0;         // pooled per-pixel buffers (grow only)
+
+  // Another image pool's numbers added (slot size and budget stay these).
+  void add(const DeviceCacheStats& other) {
+    uploads += other.uploads;
+    hits += other.hits;
+    evictions += other.evictions;
+    forgotten += other.forgotten;
+    unkeyed_uploads += other.unkeyed_uploads;
+    resident_images += other.resident_images;
+    resident_bytes += other.resident_bytes;
+    pool_bytes += other.pool_bytes;
+    work_bytes += other.work_bytes;
+  }
 };
 
 namespace mvs {
