@@ -139,6 +139,7 @@ struct EstimatorResources {
   // Device memory for keyed images kept between estimates (CUDA), at most as
   // many images as the GPU has texture layers (2048 on an H100). One
   // estimate's own images are always held, even when they need more.
+  // Coarse-to-fine's coarser copies, once used, get a fifth of it.
   size_t device_image_budget_bytes = size_t(256) << 20;
 
   std::string validate() const;
