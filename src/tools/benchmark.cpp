@@ -14,7 +14,7 @@
 //                         [--map-foreground] the replay updates the voxel map in its own thread
 //                         [--pipeline-multiscale N[,K]] the pipeline's estimator at N scales (1),
 //                                           K iterations at the finer ones (2); 2,1: the
-//                                           setting for real video (README)
+//                                           setting for real video (README); the replay too
 //
 // Online pipeline tables (MappingPipeline, GPU when usable):
 //   fusion:   fuseDepthMaps (CPU, OpenMP, all cores) of a 640x480 keyframe
@@ -398,14 +398,16 @@ std::string pipelineTable(int keyframe_count, Multiscale multiscale) {
 // Memory over a long replay: `count` keyframes of 160x120 through one
 // pipeline (a rendered loop of 100 poses, shifted 1 mm per lap so that no
 // two keyframes share a centre).
-std::string replayTable(int count, bool map_in_background) {
+std::string replayTable(int count, bool map_in_background, Multiscale multiscale) {
   std::ostringstream out;
-  out << "\n## Memory over a long replay: " << count << " keyframes of 160x120, 4 sources\n\n"
+  out << "\n## Memory over a long replay: " << count << " keyframes of 160x120, 4 sources";
+  if (multiscale.levels > 1) out << ", " << multiscale.levels << " scales";
+  out << "\n\n"
       << "| keyframes | host RSS MiB | device used MiB (cudaMemGetInfo) | estimator's device MiB (pool + work) | "
          "stored keyframes | map voxels | ms per keyframe (last interval) |\n|---|---|---|---|---|---|---|\n";
   const int lap = 100;
   const std::vector<Keyframe> loop = roomKeyframes(lap, 160, 120, 2);
-  PipelineOptions options = pipelineOptions(4);
+  PipelineOptions options = pipelineOptions(4, multiscale);
   options.mapper.map_in_background = map_in_background;
   options.mapper.store.max_keyframes = 50;
   MappingPipeline pipeline(options);
@@ -600,7 +602,7 @@ int main(int argc, char** argv) {
       online += poseRefinementTable(std::max(runs, 5));
       save();
     }
-    if (only.empty() ? !quick : wants("replay")) online += replayTable(replay_count, !map_foreground);
+    if (only.empty() ? !quick : wants("replay")) online += replayTable(replay_count, !map_foreground, pipeline_multiscale);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "amhmvs_benchmark: %s\n", e.what());
     return 1;
