@@ -10,7 +10,7 @@
 # STEPs (V = new, this checkout, or base, BASE_COMMIT built alongside):
 #   pipe:V[:ENV=VALUE]  amhmvs_benchmark --only pipeline (BENCH_ONLY=... for other sections,
 #                       BENCH_ARGS=... for more options, e.g. "--pipeline-multiscale 2,1")
-#   replay:V:N          amhmvs_benchmark --only replay --replay N (host and device memory)
+#   replay:V:N          amhmvs_benchmark --only replay --replay N (host and device memory; BENCH_ARGS too)
 #   wall:V              amhmvs_depth wall time on fountain x0.25 (5 program runs)
 #   tests:V             amhmvs_gpu_tests (without the CPU fountain run)
 #   sanitize            compute-sanitizer memcheck of the GPU tests' small scenes (new)
@@ -76,7 +76,9 @@ run() {
           --out "$out/bench_${v}_$(date +%H%M%S).md" 2>&1 | grep -E "^\| [48] |per reference|^\| [0-9.]+ \|" ;;
       replay:*)
         IFS=: read -r _ v n <<< "$step"
-        "/tmp/$v/amhmvs_benchmark" /tmp/d --only replay --replay "$n" --out "$out/replay_${v}_$n.md" 2>&1 | tail -14 ;;
+        # shellcheck disable=SC2086
+        "/tmp/$v/amhmvs_benchmark" /tmp/d --only replay --replay "$n" ${BENCH_ARGS:-} --out "$out/replay_${v}_$n.md" 2>&1 |
+          tail -14 ;;
       wall:*)
         v=${step#wall:}
         for r in 1 2 3 4 5; do
