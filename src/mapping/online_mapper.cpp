@@ -233,7 +233,32 @@ bool OnlineMapper::refine(KeyframeResult* result) {
     estimateStored(id, std::move(selection), /*late=*/false, start, result);
     return true;
   }
-  return fuseDeferred(result);  // a deferred fusion's outcome, if any
+  if (fuseDeferred(result)) return true;  // a deferred fusion's outcome, if any
+  return fuseAgainstReplacedMaps(result);
+}
+
+void OnlineMapper::noteReplacedDepthMap(int64_t id) {
+  for (const auto& [other, record] : estimates_) {
+    if (other != id && record.fused &&
+        std::find(record.fused_with.begin(), record.fused_with.end(), id) != record.fused_with.end()) {
+      fused_against_replaced_maps_.insert(other);
+    }
+  }
+}
+
+bool OnlineMapper::fuseAgainstReplacedMaps(KeyframeResult* result) {
+  const size_t required = static_cast<size_t>(std::max(1, options_.fusion.min_consistent_views));
+  while (!fused_against_replaced_maps_.empty()) {
+    const int64_t id = *fused_against_replaced_maps_.begin();
+    fused_against_replaced_maps_.erase(fused_against_replaced_maps_.begin());
+    if (std::find(waiting_.begin(), waiting_.end(), id) != waiting_.end()) continue;  // fused anyway
+    const Clock::time_point start = Clock::now();
+    std::vector<int64_t> views = consistencyViews(id);
+    if (views.size() < required) continue;
+    fuseAgainNow(id, std::move(views), start, result);
+    return true;
+  }
+  return false;
 }
 
 void OnlineMapper::estimateStored(int64_t id, SourceSelection selection, bool late, Clock::time_point start,
@@ -311,6 +336,7 @@ void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult
   noteEvicted(store_.attachDepth(id, result->depth), result);
   result->times.store_ms += millisecondsSince(start);
   if (!store_.contains(id)) return;
+  if (result->refined && options_.refinement.fuse_neighbours_again) noteReplacedDepthMap(id);
   // A keyframe with a depth map waits for fusion (a refined one again); this
   // depth map may also complete earlier waiting keyframes.
   if (std::find(waiting_.begin(), waiting_.end(), id) == waiting_.end()) waiting_.push_back(id);
@@ -362,6 +388,7 @@ OnlineMapper::Forgotten OnlineMapper::forgetKeyframe(int64_t id) {
     forgotten.was_waiting_for_sources = true;
   }
   fused_with_fewer_views_.erase(id);
+  fused_against_replaced_maps_.erase(id);
   const auto waiting = std::find(waiting_.begin(), waiting_.end(), id);
   if (waiting != waiting_.end()) {
     waiting_.erase(waiting);
@@ -413,17 +440,22 @@ bool OnlineMapper::fuseAgain(KeyframeResult* result) {
     std::vector<int64_t> views = consistencyViews(id);
     entry.views_checked = true;
     if (views.size() <= entry.views) continue;
-    *result = KeyframeResult();
-    result->id = id;
-    result->fused_again = true;
-    result->camera = store_.keyframe(id).camera;
-    result->times.fusion_ms = millisecondsSince(start);
-    fuseNow(id, std::move(views), result);
-    result->waiting_for_fusion = waiting_.size();
-    result->times.total_ms = millisecondsSince(start);
+    fuseAgainNow(id, std::move(views), start, result);
     return true;
   }
   return false;
+}
+
+void OnlineMapper::fuseAgainNow(int64_t id, std::vector<int64_t> views, Clock::time_point start,
+                                KeyframeResult* result) {
+  *result = KeyframeResult();
+  result->id = id;
+  result->fused_again = true;
+  result->camera = store_.keyframe(id).camera;
+  result->times.fusion_ms = millisecondsSince(start);
+  fuseNow(id, std::move(views), result);
+  result->waiting_for_fusion = waiting_.size();
+  result->times.total_ms = millisecondsSince(start);
 }
 
 void OnlineMapper::fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResult* result) {
@@ -439,6 +471,8 @@ void OnlineMapper::fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResul
   EstimateRecord& record = estimates_[id];
   fused.again = record.fused;
   record.fused = true;
+  record.fused_with = fused.consistency_ids;
+  fused_against_replaced_maps_.erase(id);
   fused.stamp = store_.keyframe(id).stamp;
   fused.camera = store_.keyframe(id).camera;
   Clock::time_point start = Clock::now();
@@ -599,6 +633,7 @@ void OnlineMapper::reset() {
   store_ = KeyframeStore(options_.store);
   waiting_.clear();
   fused_with_fewer_views_.clear();
+  fused_against_replaced_maps_.clear();
   evicted_before_fusion_ = 0;
   waiting_for_sources_.clear();
   evicted_without_depth_ = 0;

@@ -100,6 +100,7 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "refinement/keep_only_better", &o->refinement.keep_only_better);
   read(nh, "refinement/confident_cost", &o->refinement.confident_cost);
   read(nh, "refinement/max_confident_loss", &o->refinement.max_confident_loss);
+  read(nh, "refinement/fuse_neighbours_again", &o->refinement.fuse_neighbours_again);
 
   read(nh, "neighbour_depth/start_from_neighbours", &o->neighbour_depth.start_from_neighbours);
   read(nh, "neighbour_depth/start_iterations", &o->neighbour_depth.start_iterations);

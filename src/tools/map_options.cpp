@@ -41,6 +41,7 @@ bool setFusionOption(const std::string& name, const std::string& value, OnlineMa
   else if (name == "confidence_level") mapper->confidence.min_probability = parseValue<float>(name, value);
   else if (name == "confidence_again_with_more_views")
     mapper->confidence.again_with_more_views = parseSwitch(name, value);
+  else if (name == "fuse_neighbours_again") mapper->refinement.fuse_neighbours_again = parseSwitch(name, value);
   else return false;
   return true;
 }
@@ -58,7 +59,7 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     std::string name, value;
     nextOption(arguments, &i,
                {"quiet", "write_depth", "write_previews", "write_clouds", "write_confidence", "skip_to_newest",
-                "confidence", "confidence_again_with_more_views", "pose_refinement", "start_from_neighbours",
+                "confidence", "confidence_again_with_more_views", "fuse_neighbours_again", "pose_refinement", "start_from_neighbours",
                 "geometric_refinement"},
                &name, &value);
     if (name == "quiet") options.quiet = parseSwitch(name, value);
@@ -205,6 +206,8 @@ std::string mapToolUsage() {
          "                       views see it than when it was fused, up to the 4 the confidence\n"
          "                       counts (the first keyframes of a run; idle work during the next\n"
          "                       8 depth maps; default 1)\n"
+         "  --fuse_neighbours_again[=0|1]  fuse a keyframe again when a refinement replaced the\n"
+         "                       depth map of one of its consistency views (idle work; default 0)\n"
          "  --queue_size N       keyframes waiting (default: all offline, 4 with --realtime)\n"
          "  --skip_to_newest[=0|1]  after a queue overflow take the newest keyframe (default 1)\n"
          "Pose refinement (before stereo; depth, clouds and map stay in the tracker's frame):\n"

@@ -502,6 +502,62 @@ TEST(OnlineMapper, KeyframeFusedFirstWithoutPointsIsFusedAgainWhenRefined) {
   EXPECT_TRUE(mapper.map().contains(1));
 }
 
+// Keyframe 2 is fused against {0, 1} while 1's first depth map confirms
+// nothing, so it gets no point; the refinements then replace 0's and 1's
+// depth maps. With refinement.fuse_neighbours_again keyframe 2 is fused
+// again against them (once, after the refinements) and reaches the map;
+// without, it keeps its empty fusion.
+TEST(OnlineMapper, KeyframeFusedAgainstAReplacedDepthMapIsFusedAgainWhenAsked) {
+  for (const bool again : {false, true}) {
+    OnlineMapperOptions options = wallOptions();
+    options.refinement.min_score_gain = 1.01;
+    options.refinement.fuse_neighbours_again = again;
+    int first_estimates_of_1 = 0;
+    OnlineMapper mapper(options, [&](const DepthProblem& problem) {
+      DepthMap map = wallDepth(problem);
+      const bool keyframe_1 = std::abs(cameraToWorld(problem.reference_camera).translation().x() - 0.5) < 1e-9;
+      if (keyframe_1 && first_estimates_of_1++ == 0)
+        std::fill(map.depth.data.begin(), map.depth.data.end(), std::numeric_limits<float>::quiet_NaN());
+      return map;
+    });
+    std::vector<FusedKeyframe> fusions_of_2;
+    std::vector<bool> refined_before;  // per fusion of 2: a refinement ran before it in the same call
+    const auto keep = [&](const KeyframeResult& result) {
+      for (const FusedKeyframe& fused : result.fused) {
+        if (fused.id != 2) continue;
+        fusions_of_2.push_back(fused);
+        refined_before.push_back(result.refined);
+      }
+    };
+    for (int i = 0; i < 3; ++i) {
+      keep(mapper.process(keyframeAt(i, 0.5 * i)));
+      KeyframeResult late;
+      if (mapper.estimateLate(&late)) keep(late);
+    }
+    ASSERT_EQ(fusions_of_2.size(), 1u) << again;
+    EXPECT_EQ(fusions_of_2[0].consistency_ids, (std::vector<int64_t>{1, 0}));
+    EXPECT_TRUE(fusions_of_2[0].points->empty());
+    int refinements = 0;
+    KeyframeResult step;
+    while (mapper.refine(&step)) {
+      refinements += step.refined;
+      keep(step);
+    }
+    EXPECT_EQ(refinements, 2) << again;  // 0 and 1
+    if (!again) {
+      EXPECT_EQ(fusions_of_2.size(), 1u);
+      EXPECT_FALSE(mapper.map().contains(2));
+      continue;
+    }
+    ASSERT_EQ(fusions_of_2.size(), 2u);  // once, though both its views were replaced
+    EXPECT_TRUE(fusions_of_2[1].again);
+    EXPECT_FALSE(refined_before[1]);  // its own step, not a refinement's
+    EXPECT_FALSE(fusions_of_2[1].points->empty());
+    EXPECT_TRUE(mapper.map().contains(2));
+    for (const Eigen::Vector3f& p : mapper.map().exportCloud().points) EXPECT_NEAR(p.z(), kWallZ, 1e-4);
+  }
+}
+
 TEST(OnlineMapper, OutlierThatOnlyOneViewChecksNeverReachesTheMap) {
   // Keyframes 1 and 2 (x = 0.5, 1.0) share the blob; 3 and 4 see the wall.
   const auto estimate = [](const DepthProblem& problem) { return wallWithBlob(problem, 0.5, 1.0); };

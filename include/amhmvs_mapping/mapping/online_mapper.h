@@ -57,6 +57,7 @@
 #include <functional>
 #include <future>
 #include <map>
+#include <set>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -89,6 +90,11 @@ struct RefinementOptions {
   // refinements and shrank the maps of the temple and redkitchen bags
   // (rostests replay_map: 882 / 1018 map points against floors of 1200 / 2400).
   bool keep_only_better = false;
+  // Keyframes fused against a depth map that a refinement then replaced are
+  // fused again (idle work, after the refinements): their agreement was
+  // checked against the old map (the last keyframe of a run is never refined
+  // itself, but its consistency views are).
+  bool fuse_neighbours_again = false;
   double confident_cost = 0.5;
   double max_confident_loss = 0.02;
 
@@ -339,6 +345,7 @@ class OnlineMapper {
     double score = 0;  // total selection score
     int refinements = 0;
     bool fused = false;  // fused once (even with no point): a later fusion is "again"
+    std::vector<int64_t> fused_with;  // the consistency views of its last fusion
     // The store's revision when refine() last chose its sources anew and kept
     // the estimate (an idle pipeline asks every step; nothing changed since).
     uint64_t selection_checked_at = kNeverChecked;
@@ -359,6 +366,13 @@ class OnlineMapper {
   void fuseWaiting(KeyframeResult* result);
   // Fuses keyframe `id` against `views` now (its points, confidence, map).
   void fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResult* result);
+  // Fuses an already fused keyframe again, as the result of this step.
+  void fuseAgainNow(int64_t id, std::vector<int64_t> views, std::chrono::steady_clock::time_point start,
+                    KeyframeResult* result);
+  // refinement.fuse_neighbours_again: the keyframes fused against `id`'s
+  // replaced depth map wait to be fused again; one of them now, if any.
+  void noteReplacedDepthMap(int64_t id);
+  bool fuseAgainstReplacedMaps(KeyframeResult* result);
   // The most consistency views a keyframe is fused against.
   size_t consistencyViewCap() const;
   // Marks stored keyframe `id` done without depth (a source only).
@@ -409,6 +423,9 @@ class OnlineMapper {
   };
   static constexpr int kUnderfusedRechecks = 8;
   std::map<int64_t, Underfused> fused_with_fewer_views_;
+  // Fused against a depth map that a refinement replaced since
+  // (refinement.fuse_neighbours_again): fused again once nothing is left to refine.
+  std::set<int64_t> fused_against_replaced_maps_;
   size_t evicted_before_fusion_ = 0;
   std::vector<int64_t> waiting_for_sources_;  // no source view yet; oldest first
   std::map<int64_t, EstimateRecord> estimates_;  // keyframes with a depth map
