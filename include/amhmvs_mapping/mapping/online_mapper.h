@@ -39,7 +39,10 @@
 // fuses it again (its map points are replaced) -- when the new depth map is
 // not worse by the estimator's own evidence (refinement_evidence.h:
 // confident pixels; refinement.keep_only_better); otherwise the keyframe
-// keeps its depth map and fusion (result.refinement_rejected).
+// keeps its depth map and fusion (result.refinement_rejected). With
+// refinement.fuse_neighbours_again, once nothing is left to refine, refine()
+// fuses again each keyframe whose last fusion checked against a depth map
+// that a refinement has replaced since (one per call, result.fused_again).
 //
 // So the second keyframe of a run, which has one depth map to be checked
 // against, waits until enough later depth maps exist; the last keyframes of a
