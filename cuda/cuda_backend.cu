@@ -451,7 +451,8 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
   }
   out.milliseconds = state.stop.millisecondsSince(state.start);
   out.compute_milliseconds = state.stop.millisecondsSince(state.uploaded);
-  out.gpu_memory_bytes = state.pool.stats().pool_bytes + state.coarser_pool.stats().pool_bytes + work.bytes();
+  const DeviceCacheStats memory = state.stats();
+  out.gpu_memory_bytes = memory.pool_bytes + memory.work_bytes;
   if (!result) {
     work.intermediate_host_depth = out.depth.data.data();
     work.intermediate_width = width;

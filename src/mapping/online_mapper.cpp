@@ -247,7 +247,7 @@ void OnlineMapper::noteReplacedDepthMap(int64_t id) {
 }
 
 bool OnlineMapper::fuseAgainstReplacedMaps(KeyframeResult* result) {
-  const size_t required = static_cast<size_t>(std::max(1, options_.fusion.min_consistent_views));
+  const size_t required = requiredConsistencyViews();
   while (!fused_against_replaced_maps_.empty()) {
     const int64_t id = *fused_against_replaced_maps_.begin();
     fused_against_replaced_maps_.erase(fused_against_replaced_maps_.begin());
@@ -409,7 +409,7 @@ void OnlineMapper::noteEvicted(const std::vector<int64_t>& evicted, KeyframeResu
 }
 
 void OnlineMapper::fuseWaiting(KeyframeResult* result) {
-  const size_t required = static_cast<size_t>(std::max(1, options_.fusion.min_consistent_views));
+  const size_t required = requiredConsistencyViews();
   // A snapshot: fusing one keyframe may evict another (attachPoints).
   const std::vector<int64_t> candidates = waiting_;
   for (int64_t id : candidates) {
@@ -557,6 +557,10 @@ OnlineMapper::~OnlineMapper() {
 size_t OnlineMapper::consistencyViewCap() const {
   return static_cast<size_t>(
       std::min(kMaxSourceViews, std::max(options_.sources.max_sources, options_.fusion.min_consistent_views)));
+}
+
+size_t OnlineMapper::requiredConsistencyViews() const {
+  return static_cast<size_t>(std::max(1, options_.fusion.min_consistent_views));
 }
 
 std::vector<int64_t> OnlineMapper::consistencyViews(int64_t id) const {

@@ -7,9 +7,11 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <functional>
 #include <limits>
-#include <mutex>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <set>
 #include <stdexcept>
 
@@ -469,17 +471,23 @@ size_t pointsNearerThan(const PointCloud& cloud, double z) {
   return count;
 }
 
+// The wall's exact depth, except keyframe 1's (at x = 0.5) first depth map,
+// all NaN: it confirms nothing.
+EstimateFunction wallWhoseKeyframe1FirstConfirmsNothing() {
+  auto first_estimates_of_1 = std::make_shared<int>(0);
+  return [first_estimates_of_1](const DepthProblem& problem) {
+    DepthMap map = wallDepth(problem);
+    const bool keyframe_1 = std::abs(cameraToWorld(problem.reference_camera).translation().x() - 0.5) < 1e-9;
+    if (keyframe_1 && (*first_estimates_of_1)++ == 0)
+      std::fill(map.depth.data.begin(), map.depth.data.end(), std::numeric_limits<float>::quiet_NaN());
+    return map;
+  };
+}
+
 TEST(OnlineMapper, KeyframeFusedFirstWithoutPointsIsFusedAgainWhenRefined) {
   OnlineMapperOptions options = wallOptions();
   options.refinement.min_score_gain = 1.01;
-  int first_estimates_of_1 = 0;
-  OnlineMapper mapper(options, [&](const DepthProblem& problem) {
-    DepthMap map = wallDepth(problem);
-    const bool keyframe_1 = std::abs(cameraToWorld(problem.reference_camera).translation().x() - 0.5) < 1e-9;
-    if (keyframe_1 && first_estimates_of_1++ == 0)  // its first depth map confirms nothing
-      std::fill(map.depth.data.begin(), map.depth.data.end(), std::numeric_limits<float>::quiet_NaN());
-    return map;
-  });
+  OnlineMapper mapper(options, wallWhoseKeyframe1FirstConfirmsNothing());
   std::vector<FusedKeyframe> fusions_of_1;
   const auto keep = [&](const KeyframeResult& result) {
     for (const FusedKeyframe& fused : result.fused)
@@ -512,14 +520,7 @@ TEST(OnlineMapper, KeyframeFusedAgainstAReplacedDepthMapIsFusedAgainWhenAsked) {
     OnlineMapperOptions options = wallOptions();
     options.refinement.min_score_gain = 1.01;
     options.refinement.fuse_neighbours_again = again;
-    int first_estimates_of_1 = 0;
-    OnlineMapper mapper(options, [&](const DepthProblem& problem) {
-      DepthMap map = wallDepth(problem);
-      const bool keyframe_1 = std::abs(cameraToWorld(problem.reference_camera).translation().x() - 0.5) < 1e-9;
-      if (keyframe_1 && first_estimates_of_1++ == 0)
-        std::fill(map.depth.data.begin(), map.depth.data.end(), std::numeric_limits<float>::quiet_NaN());
-      return map;
-    });
+    OnlineMapper mapper(options, wallWhoseKeyframe1FirstConfirmsNothing());
     std::vector<FusedKeyframe> fusions_of_2;
     std::vector<bool> refined_before;  // per fusion of 2: a refinement ran before it in the same call
     const auto keep = [&](const KeyframeResult& result) {

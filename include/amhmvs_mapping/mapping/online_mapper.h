@@ -378,6 +378,8 @@ class OnlineMapper {
   bool fuseAgainstReplacedMaps(KeyframeResult* result);
   // The most consistency views a keyframe is fused against.
   size_t consistencyViewCap() const;
+  // The fewest consistency views a keyframe is fused against (at least 1).
+  size_t requiredConsistencyViews() const;
   // Marks stored keyframe `id` done without depth (a source only).
   void markSourceOnly(int64_t id, KeyframeResult* result);
   // Drops a keyframe that left the store from every list and cache (not the map).
