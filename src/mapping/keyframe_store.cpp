@@ -294,6 +294,21 @@ std::vector<int64_t> KeyframeStore::attachPoints(int64_t id, Shared<KeyframePoin
   return evicted;
 }
 
+void KeyframeStore::replaceImage(int64_t id, ImageU8 image) {
+  Entry& entry = find(id, "replace the image of");
+  Keyframe& keyframe = entry.stored.keyframe;
+  if (image.width != keyframe.image.width || image.height != keyframe.image.height ||
+      image.channels != keyframe.image.channels) {
+    throw InputError("keyframe store: new image of " + keyframeName(id) + " is " + std::to_string(image.width) + "x" +
+                     std::to_string(image.height) + "x" + std::to_string(image.channels) + ", the stored one " +
+                     std::to_string(keyframe.image.width) + "x" + std::to_string(keyframe.image.height) + "x" +
+                     std::to_string(keyframe.image.channels));
+  }
+  keyframe.image = std::move(image);
+  if (keyframe.image.channels != 1) entry.stored.gray_image = toGray(keyframe.image);
+  ++revision_;
+}
+
 void KeyframeStore::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world) {
   Entry& entry = find(id, "update the pose of");
   const std::string why = validateRigidPose(camera_to_world);

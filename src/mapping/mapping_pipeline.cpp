@@ -78,6 +78,8 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"keyframes_evicted_before_fusion", &PipelineStats::keyframes_evicted_before_fusion},
       {"keyframes_waiting_for_sources", &PipelineStats::keyframes_waiting_for_sources},
       {"keyframes_evicted_without_depth", &PipelineStats::keyframes_evicted_without_depth},
+      {"rolling_shutter_rectified", &PipelineStats::rolling_shutter_rectified},
+      {"rolling_shutter_not_rectified", &PipelineStats::rolling_shutter_not_rectified},
       {"map voxels", &PipelineStats::map_voxels},
   };
   return fields;
@@ -655,6 +657,8 @@ std::vector<PipelineOutput> MappingPipeline::step() {
   stats_.keyframes_evicted_before_fusion = mapper_->evictedBeforeFusion();
   stats_.keyframes_waiting_for_sources = mapper_->waitingForSources().size();
   stats_.keyframes_evicted_without_depth = mapper_->evictedWithoutDepth();
+  stats_.rolling_shutter_rectified = mapper_->rollingShutterRectified();
+  stats_.rolling_shutter_not_rectified = mapper_->rollingShutterNotRectified();
   stats_.map_voxels = mapper_->mapVoxelCount();
   stats_.map_revision = mapper_->mapRevision();
   {

@@ -79,6 +79,7 @@ std::string OnlineMapperOptions::validate() const {
   appendProblems("confidence", confidence.validate(), &out);
   appendProblems("pose_refinement", pose_refinement.validate(), &out);
   appendProblems("neighbour_depth", neighbour_depth.validate(), &out);
+  appendProblems("rolling_shutter", rolling_shutter.validate(), &out);
   if (fusion.min_consistent_views > kMaxSourceViews)
     out << "fusion: min_consistent_views must be at most " << kMaxSourceViews << " (the most consistency views)\n";
   return out.str();
@@ -107,8 +108,10 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe, bool next_follows) {
   const Clock::time_point start = Clock::now();
   KeyframeResult result;
   result.id = keyframe.id;
+  const bool rectified = rectifyRollingShutterImage(&keyframe);
   result.camera = keyframe.camera;
   noteEvicted(store_.add(std::move(keyframe)), &result);
+  noteMotionAnchor(result.id, rectified);
   handOutUndelivered(&result);
   result.times.store_ms = millisecondsSince(start);
   const int64_t id = result.id;
@@ -150,9 +153,41 @@ void OnlineMapper::markSourceOnly(int64_t id, KeyframeResult* result) {
 std::vector<int64_t> OnlineMapper::addSourceView(Keyframe keyframe) {
   KeyframeResult result;
   const int64_t id = keyframe.id;
+  const bool rectified = rectifyRollingShutterImage(&keyframe);
   noteEvicted(store_.add(std::move(keyframe)), &result);
+  noteMotionAnchor(id, rectified);
   markSourceOnly(id, &result);
   return result.evicted;
+}
+
+bool OnlineMapper::rectifyRollingShutterImage(Keyframe* keyframe) {
+  const RollingShutterOptions& options = options_.rolling_shutter;
+  // An invalid keyframe or a stamp that goes back: the store refuses it and says why.
+  if (!options.enabled() || !keyframe->validate().empty()) return false;
+  if (motion_anchor_.set && keyframe->stamp < motion_anchor_.stamp) return false;
+  const double interval = keyframe->stamp - motion_anchor_.stamp;
+  if (!motion_anchor_.set || !(interval > 0) || interval > options.max_interval_s) {
+    ++rolling_shutter_not_rectified_;
+    return false;
+  }
+  const Eigen::Vector3d angular_velocity = cameraAngularVelocity(motion_anchor_.camera, keyframe->camera, interval);
+  keyframe->image = rectifyRollingShutter(keyframe->image, keyframe->camera, angular_velocity, options.readout_s);
+  ++rolling_shutter_rectified_;
+  const int64_t previous = motion_anchor_.id;
+  if (!motion_anchor_.rectified && motion_anchor_.estimates_started == estimates_started_ &&
+      store_.contains(previous)) {
+    const Keyframe& stored = store_.keyframe(previous);
+    store_.replaceImage(previous, rectifyRollingShutter(stored.image, stored.camera, angular_velocity, options.readout_s));
+    --rolling_shutter_not_rectified_;
+    ++rolling_shutter_rectified_;
+  }
+  return true;
+}
+
+void OnlineMapper::noteMotionAnchor(int64_t id, bool rectified) {
+  if (!options_.rolling_shutter.enabled()) return;
+  const Keyframe& stored = store_.keyframe(id);
+  motion_anchor_ = {true, id, stored.stamp, stored.camera, rectified, estimates_started_};
 }
 
 bool OnlineMapper::fuseDeferred(KeyframeResult* result) {
@@ -284,6 +319,7 @@ void OnlineMapper::estimateStored(int64_t id, SourceSelection selection, bool la
 }
 
 void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult* result) {
+  ++estimates_started_;  // images are read from here on (rectifyRollingShutterImage)
   const std::vector<int64_t>& sources = result->selection.source_ids;
   Clock::time_point start = Clock::now();
   result->depth_range = estimateDepthRange(store_, id, sources, options_.depth_range);
@@ -641,6 +677,9 @@ void OnlineMapper::reset() {
   evicted_before_fusion_ = 0;
   waiting_for_sources_.clear();
   evicted_without_depth_ = 0;
+  motion_anchor_ = MotionAnchor();
+  rolling_shutter_rectified_ = 0;
+  rolling_shutter_not_rectified_ = 0;
   estimates_.clear();
   fusion_deferred_ = false;
   undelivered_ = KeyframeResult();

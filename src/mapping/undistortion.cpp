@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "amhmvs_mapping/core/image_remap.h"
+
 namespace amhmvs {
 namespace {
 
@@ -57,23 +59,13 @@ Eigen::Vector2d distortNormalized(const Distortion& d, const Eigen::Vector2d& id
 }
 
 ImageU8 undistortImage(const ImageU8& image, const PinholeCamera& camera, const Distortion& distortion) {
-  ImageU8 out(image.width, image.height, image.channels, 0);
-  for (int v = 0; v < image.height; ++v) {
-    for (int u = 0; u < image.width; ++u) {
-      const Eigen::Vector2d ideal((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy);
-      const Eigen::Vector2d distorted = distortNormalized(distortion, ideal);
-      const double su = camera.fx * distorted.x() + camera.cx, sv = camera.fy * distorted.y() + camera.cy;
-      const int u0 = static_cast<int>(std::floor(su)), v0 = static_cast<int>(std::floor(sv));
-      if (u0 < 0 || v0 < 0 || u0 + 1 >= image.width || v0 + 1 >= image.height) continue;
-      const double a = su - u0, b = sv - v0;
-      for (int c = 0; c < image.channels; ++c) {
-        const double value = (1 - a) * (1 - b) * image.at(u0, v0, c) + a * (1 - b) * image.at(u0 + 1, v0, c) +
-                             (1 - a) * b * image.at(u0, v0 + 1, c) + a * b * image.at(u0 + 1, v0 + 1, c);
-        out.at(u, v, c) = static_cast<uint8_t>(std::lround(value));
-      }
-    }
-  }
-  return out;
+  const auto distorted_position = [&](int u, int v, double* su, double* sv) {
+    const Eigen::Vector2d ideal((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy);
+    const Eigen::Vector2d distorted = distortNormalized(distortion, ideal);
+    *su = camera.fx * distorted.x() + camera.cx;
+    *sv = camera.fy * distorted.y() + camera.cy;
+  };
+  return remapBilinear(image, distorted_position, RemapBorder::kZero);
 }
 
 }  // namespace amhmvs

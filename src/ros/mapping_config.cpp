@@ -102,6 +102,9 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "refinement/max_confident_loss", &o->refinement.max_confident_loss);
   read(nh, "refinement/fuse_neighbours_again", &o->refinement.fuse_neighbours_again);
 
+  read(nh, "rolling_shutter/readout_s", &o->rolling_shutter.readout_s);
+  read(nh, "rolling_shutter/max_interval_s", &o->rolling_shutter.max_interval_s);
+
   read(nh, "neighbour_depth/start_from_neighbours", &o->neighbour_depth.start_from_neighbours);
   read(nh, "neighbour_depth/start_iterations", &o->neighbour_depth.start_iterations);
   read(nh, "neighbour_depth/start_max_cost", &o->neighbour_depth.start_max_cost);

@@ -42,6 +42,9 @@ bool setFusionOption(const std::string& name, const std::string& value, OnlineMa
   else if (name == "confidence_again_with_more_views")
     mapper->confidence.again_with_more_views = parseSwitch(name, value);
   else if (name == "fuse_neighbours_again") mapper->refinement.fuse_neighbours_again = parseSwitch(name, value);
+  else if (name == "rolling_shutter_s") mapper->rolling_shutter.readout_s = parseValue<double>(name, value);
+  else if (name == "rolling_shutter_max_interval_s")
+    mapper->rolling_shutter.max_interval_s = parseValue<double>(name, value);
   else return false;
   return true;
 }
@@ -208,6 +211,11 @@ std::string mapToolUsage() {
          "                       8 depth maps; default 1)\n"
          "  --fuse_neighbours_again[=0|1]  fuse a keyframe again when a refinement replaced the\n"
          "                       depth map of one of its consistency views (idle work; default 0)\n"
+         "  --rolling_shutter_s S  the camera's rolling-shutter readout, first to last row:\n"
+         "                       each keyframe image is rectified for the rotation during it\n"
+         "                       (angular velocity from the poses of the keyframe before it,\n"
+         "                       at most --rolling_shutter_max_interval_s before, default 1;\n"
+         "                       stamps: --frame_period) (default 0: global shutter)\n"
          "  --queue_size N       keyframes waiting (default: all offline, 4 with --realtime)\n"
          "  --skip_to_newest[=0|1]  after a queue overflow take the newest keyframe (default 1)\n"
          "Pose refinement (before stereo; depth, clouds and map stay in the tracker's frame):\n"

@@ -127,6 +127,10 @@ class KeyframeStore {
   // attachments are in the camera frame and stay valid. Throws InputError for
   // an unknown id or a non-finite / non-rigid pose.
   void updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world);
+  // A new image of the same size and channels for a stored keyframe (its grey
+  // copy follows); for corrections made before anything read the old one
+  // (rolling_shutter.h). Throws InputError otherwise.
+  void replaceImage(int64_t id, ImageU8 image);
 
   // Removes a keyframe; throws InputError for an unknown id.
   void remove(int64_t id);

@@ -143,6 +143,10 @@ struct PipelineStats {
   uint64_t keyframes_evicted_before_fusion = 0;
   uint64_t keyframes_waiting_for_sources = 0;
   uint64_t keyframes_evicted_without_depth = 0;
+  // mapper.rolling_shutter (since the last reset): images rectified, and
+  // images used as they came (no keyframe close enough before to tell the motion).
+  uint64_t rolling_shutter_rectified = 0;
+  uint64_t rolling_shutter_not_rectified = 0;
   uint64_t map_voxels = 0;
   uint64_t map_revision = 0;
   bool idle = true;                    // the last step() found nothing to do and nothing is queued

@@ -74,6 +74,7 @@
 #include "amhmvs_mapping/mapping/neighbour_depth.h"
 #include "amhmvs_mapping/mapping/pose_refinement.h"
 #include "amhmvs_mapping/mapping/refined_relative_poses.h"
+#include "amhmvs_mapping/mapping/rolling_shutter.h"
 #include "amhmvs_mapping/mapping/source_selection.h"
 #include "amhmvs_mapping/mapping/voxel_map.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
@@ -127,6 +128,10 @@ struct OnlineMapperOptions {
   PoseRefinementOptions pose_refinement;
   // Starts and geometric refinements from the neighbours' depth maps (off).
   NeighbourDepthOptions neighbour_depth;
+  // Rolling-shutter rectification of each keyframe's image before it is
+  // stored (off: readout_s 0), with the angular velocity from the tracker's
+  // poses of it and the keyframe before it.
+  RollingShutterOptions rolling_shutter;
   // The voxel-map update of a fused keyframe runs on a worker thread while
   // the caller goes on (with a GPU estimator: while the next keyframe is
   // estimated, when the CPU would otherwise wait); every later use of the
@@ -299,6 +304,12 @@ class OnlineMapper {
   const std::vector<int64_t>& waitingForSources() const { return waiting_for_sources_; }
   // Of those, the ones evicted from the store before they got a depth map.
   size_t evictedWithoutDepth() const { return evicted_without_depth_; }
+  // With rolling_shutter.readout_s > 0: keyframes whose image was rectified,
+  // and those used as they came (no keyframe within max_interval_s before
+  // them to tell the motion; the first of a run is rectified with the
+  // second's motion while nothing has read its image yet).
+  size_t rollingShutterRectified() const { return rolling_shutter_rectified_; }
+  size_t rollingShutterNotRectified() const { return rolling_shutter_not_rectified_; }
 
   // Forgets every keyframe and empties the map.
   void reset();
@@ -382,6 +393,11 @@ class OnlineMapper {
   size_t requiredConsistencyViews() const;
   // Marks stored keyframe `id` done without depth (a source only).
   void markSourceOnly(int64_t id, KeyframeResult* result);
+  // Rolling shutter: rectifies a valid keyframe before it is stored (and the
+  // keyframe before it when that one could not be and nothing read it yet);
+  // then notes it as the motion anchor of the next.
+  bool rectifyRollingShutterImage(Keyframe* keyframe);
+  void noteMotionAnchor(int64_t id, bool rectified);
   // Drops a keyframe that left the store from every list and cache (not the map).
   struct Forgotten {
     bool was_waiting_for_sources = false;
@@ -435,6 +451,20 @@ class OnlineMapper {
   std::vector<int64_t> waiting_for_sources_;  // no source view yet; oldest first
   std::map<int64_t, EstimateRecord> estimates_;  // keyframes with a depth map
   size_t evicted_without_depth_ = 0;
+  // The last keyframe stored (rolling_shutter): the motion to the next one
+  // gives that one's angular velocity.
+  struct MotionAnchor {
+    bool set = false;
+    int64_t id = 0;
+    double stamp = 0;
+    PinholeCamera camera;
+    bool rectified = false;
+    uint64_t estimates_started = 0;  // estimates_started_ when it was stored: unchanged, nothing read its image
+  };
+  MotionAnchor motion_anchor_;
+  uint64_t estimates_started_ = 0;
+  size_t rolling_shutter_rectified_ = 0;
+  size_t rolling_shutter_not_rectified_ = 0;
 };
 
 }  // namespace amhmvs
