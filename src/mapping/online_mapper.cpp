@@ -8,6 +8,7 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/core/stopwatch.h"
+#include "amhmvs_mapping/mapping/keyframe_pose_graph.h"
 #include "amhmvs_mapping/mapping/map_export.h"
 #include "amhmvs_mapping/mapping/refinement_evidence.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
@@ -347,8 +348,9 @@ void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult
     // The sources' cameras of this problem only; the store keeps the tracker's.
     start = Clock::now();
     result->pose_refinement = pose_refiner_->refine(&problem);
-    result->times.pose_refinement_ms = millisecondsSince(start);
     recordRefinedPoses(id, problem, result->pose_refinement);
+    correctMapPoses();
+    result->times.pose_refinement_ms = millisecondsSince(start);
   }
   start = Clock::now();
   result->depth = estimateWhileFusing(problem, result);
@@ -418,6 +420,7 @@ OnlineMapper::Forgotten OnlineMapper::forgetKeyframe(int64_t id) {
   estimates_.erase(id);
   if (pose_refiner_) pose_refiner_->forget(id);
   refined_poses_.forget(id);
+  map_poses_.erase(id);  // its points stay in the map where they are
   const auto without_depth = std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id);
   if (without_depth != waiting_for_sources_.end()) {
     waiting_for_sources_.erase(without_depth);
@@ -540,7 +543,7 @@ void OnlineMapper::fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResul
 
 void OnlineMapper::addToMap(int64_t id, Shared<KeyframePoints> points) {
   finishMapWork();  // one update at a time, in order
-  const Eigen::Isometry3d pose = store_.keyframe(id).cameraToWorld();
+  const Eigen::Isometry3d pose = mapPose(id);
   std::function<MapUpdateRecord()> update = [this, id, pose, points = std::move(points)]() {
     const Clock::time_point start = Clock::now();
     MapUpdateRecord record;
@@ -635,6 +638,34 @@ void OnlineMapper::recordRefinedPoses(int64_t id, const DepthProblem& problem,
   }
 }
 
+Eigen::Isometry3d OnlineMapper::mapPose(int64_t id) const {
+  const auto corrected = map_poses_.find(id);
+  return corrected != map_poses_.end() ? corrected->second : store_.keyframe(id).cameraToWorld();
+}
+
+void OnlineMapper::correctMapPoses() {
+  const PoseRefinementOptions& options = options_.pose_refinement;
+  if (!options.correct_map_poses) return;
+  std::map<int64_t, Eigen::Isometry3d> tracker_poses;
+  for (int64_t id : store_.ids()) tracker_poses[id] = store_.keyframe(id).cameraToWorld();
+  std::vector<KeyframePoseGraphEdge> edges;
+  for (const auto& pair : refined_poses_.pairs()) edges.push_back({pair.first.first, pair.first.second, pair.second});
+  constexpr double kDegree = M_PI / 180;
+  KeyframePoseGraphSettings settings;
+  settings.prior_position_sigma_m = options.prior_position_sigma_m;
+  settings.prior_rotation_sigma_rad = options.prior_rotation_sigma_deg * kDegree;
+  settings.rotation_sigma_rad = options.graph_rotation_sigma_deg * kDegree;
+  settings.direction_sigma_rad = options.graph_direction_sigma_deg * kDegree;
+  map_poses_ = solveKeyframePoseGraph(tracker_poses, edges, settings);
+  for (const auto& entry : map_poses_) {
+    if (!map_.contains(entry.first) && !map_work_.valid()) continue;
+    finishMapWork();
+    if (!map_.contains(entry.first) || map_.pose(entry.first).isApprox(entry.second, 1e-12)) continue;
+    map_.updatePose(entry.first, entry.second);
+    noteMapChanged();
+  }
+}
+
 PublishedDepth OnlineMapper::publish(int64_t id, const std::vector<int64_t>& view_ids) const {
   const StoredKeyframe& stored = store_.entry(id);
   if (!hasDepthAndNormals(stored)) return {};
@@ -661,6 +692,7 @@ bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_wor
   if (!problem.empty()) throw InputError("keyframe " + std::to_string(id) + ": " + problem);
   const bool stored = store_.contains(id);
   if (stored) store_.updatePose(id, camera_to_world);
+  map_poses_.erase(id);  // the next pose graph starts from the new pose
   for (auto& entry : fused_with_fewer_views_) entry.second.views_checked = false;  // views follow the poses
   finishMapWork();
   if (!map_.contains(id)) return stored;
@@ -685,6 +717,7 @@ void OnlineMapper::reset() {
   undelivered_ = KeyframeResult();
   if (pose_refiner_) pose_refiner_->forgetAll();
   refined_poses_.clear();
+  map_poses_.clear();
   try {
     finishMapWork();
   } catch (const std::exception&) {

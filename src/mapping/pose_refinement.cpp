@@ -31,6 +31,10 @@ std::string PoseRefinementOptions::validate() const {
           "finite and > 0");
   require(std::isfinite(max_correction_deg) && max_correction_deg > 0 && max_correction_deg <= 180,
           "max_correction_deg", max_correction_deg, "in (0, 180]");
+  require(std::isfinite(graph_rotation_sigma_deg) && graph_rotation_sigma_deg > 0, "graph_rotation_sigma_deg",
+          graph_rotation_sigma_deg, "finite and > 0");
+  require(std::isfinite(graph_direction_sigma_deg) && graph_direction_sigma_deg > 0, "graph_direction_sigma_deg",
+          graph_direction_sigma_deg, "finite and > 0");
   return why.str();
 }
 
@@ -76,6 +80,13 @@ const std::vector<PoseRefinementOptionInfo>& poseRefinementOptionTable() {
       switchField("in_fusion", &O::in_fusion,
                   "the fusion's consistency check and the confidence take the neighbours at the refined relative "
                   "poses (the points stay at the tracker's pose)"),
+      switchField("correct_map_poses", &O::correct_map_poses,
+                  "the map places each keyframe at its pose corrected by a graph of all refined relative poses "
+                  "(the tracker's as priors); depth images and published clouds keep the tracker's pose"),
+      numberField("graph_rotation_sigma_deg", &O::graph_rotation_sigma_deg,
+                  "correct_map_poses: std dev of a refined pair's relative rotation, deg"),
+      numberField("graph_direction_sigma_deg", &O::graph_direction_sigma_deg,
+                  "correct_map_poses: std dev of a refined pair's baseline direction, deg"),
   };
   return table;
 }

@@ -359,7 +359,10 @@ bool MapOutputs::compareWithTruth(const KeyframeResult& result, const PosedFrame
   if (!truth_points_.count(result.id)) {
     const int stride = std::max(1, truth.depth.width / kTruthSurfaceColumns);
     truth_points_[result.id] = backprojectDepthMaps({trueSurfaceView(truth, *frame)}, stride);
-    if (frame->true_camera) tracker_placed_truth_[result.id] = backprojectDepthMaps({truth}, stride);
+    if (frame->true_camera) {
+      tracker_placed_truth_[result.id] = backprojectDepthMaps({truth}, stride);
+      tracker_poses_[result.id] = cameraToWorld(result.camera);
+    }
   }
   return true;
 }
@@ -415,9 +418,20 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
                                     std::string* line) {
   // The map: written, and judged against the ground-truth surface.
   std::vector<Eigen::Vector3f> map_points;
+  // With corrected map poses: the exact depth placed where the map put each keyframe.
+  const bool map_poses_corrected = options_.pipeline.mapper.pose_refinement.enabled &&
+                                   options_.pipeline.mapper.pose_refinement.correct_map_poses;
+  std::vector<Eigen::Vector3f> map_placed_truth;
   pipeline.withMapper([&](const OnlineMapper& mapper) {
     writeMap(dir_ + "/map.ply", mapper.map());
     map_points = mapper.map().exportCloud().points;
+    if (!map_poses_corrected) return;
+    for (const auto& entry : tracker_placed_truth_) {
+      if (!mapper.map().contains(entry.first)) continue;
+      const Eigen::Isometry3f move =
+          (mapper.map().pose(entry.first) * tracker_poses_.at(entry.first).inverse()).cast<float>();
+      for (const Eigen::Vector3f& point : entry.second) map_placed_truth.push_back(move * point);
+    }
   });
   const PipelineStats stats = pipeline.stats();
 
@@ -497,6 +511,7 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   JsonFields map;
   std::vector<double> map_within_pct;  // per threshold, when there is ground truth
   std::vector<double> bound_within_pct;  // the same for exact depth at the tracker's poses (true poses known)
+  std::vector<double> map_bound_within_pct;  // ... and at the map's corrected poses
   map.add("points", std::to_string(map_points.size()));
   map.add("voxel_size", number(options_.pipeline.mapper.map.leaf_size));
   if (!truth_points_.empty()) {
@@ -524,6 +539,12 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
       JsonFields bound_fields;
       addWithinFields(bound_within_pct, &bound_fields);
       map.add("exact_depth_at_tracker_poses", bound_fields.object());
+    }
+    if (!map_placed_truth.empty()) {
+      JsonFields map_bound_fields;
+      map_bound_within_pct = withinPct(map_placed_truth);
+      addWithinFields(map_bound_within_pct, &map_bound_fields);
+      map.add("exact_depth_at_map_poses", map_bound_fields.object());
     }
   }
   summary.add("map", map.object());
@@ -576,9 +597,15 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   }
   if (!bound_within_pct.empty()) {
     std::snprintf(text, sizeof(text),
-                  " of the true surface (exact depth at the tracker's poses: %.1f / %.1f %%)", bound_within_pct[0],
+                  " of the true surface (exact depth at the tracker's poses: %.1f / %.1f %%", bound_within_pct[0],
                   bound_within_pct.back());
     *line += text;
+    if (!map_bound_within_pct.empty()) {
+      std::snprintf(text, sizeof(text), ", at the map's poses: %.1f / %.1f %%", map_bound_within_pct[0],
+                    map_bound_within_pct.back());
+      *line += text;
+    }
+    *line += ")";
   }
   return summary.object();
 }

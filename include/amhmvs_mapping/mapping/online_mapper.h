@@ -48,6 +48,9 @@
 // against, waits until enough later depth maps exist; the last keyframes of a
 // run may still wait when input stops (waitingForFusion()). A waiting
 // keyframe evicted from the store is never fused (evictedBeforeFusion()).
+// With pose_refinement.correct_map_poses the map places each keyframe at
+// its pose from the keyframe pose graph (keyframe_pose_graph.h), solved again
+// after each pose refinement (points moved exactly, as for a loop closure).
 // Loop closure: updatePose() re-poses the keyframe in the store and moves its
 // points in the map exactly (remove with the old pose, add with the new one);
 // a waiting keyframe is fused later with the pose it has then.
@@ -372,6 +375,11 @@ class OnlineMapper {
   std::vector<FusionView> consistencyFusionViews(int64_t id, const std::vector<int64_t>& view_ids) const;
   // Keeps the relative poses a problem's refinement found (or drops stale ones).
   void recordRefinedPoses(int64_t id, const DepthProblem& problem, const PoseRefinementResult& refinement);
+  // pose_refinement.correct_map_poses: solves the keyframe pose graph over
+  // the stored keyframes and moves their points in the map to the result.
+  void correctMapPoses();
+  // Where the map places a keyframe: its corrected pose, else the tracker's.
+  Eigen::Isometry3d mapPose(int64_t id) const;
   // Fuses keyframe `id`'s depth map against the consistency views.
   KeyframePoints fuse(int64_t id, const std::vector<int64_t>& view_ids) const;
   // Its confidence and published depth against the same views.
@@ -415,6 +423,7 @@ class OnlineMapper {
   OnlineMapperOptions options_;
   std::unique_ptr<PoseRefiner> pose_refiner_;  // when options_.pose_refinement.enabled
   RefinedRelativePoses refined_poses_;         // what it found, for fusion (pose_refinement.in_fusion)
+  std::map<int64_t, Eigen::Isometry3d> map_poses_;  // pose_refinement.correct_map_poses: stored keyframes' map poses
   EstimateFunction estimate_;
   std::unique_ptr<SerialWorker> estimate_worker_;  // estimates that overlap a deferred fusion
   bool fusion_deferred_ = false;  // step 5 of the last depth map waits (process(..., next_follows))

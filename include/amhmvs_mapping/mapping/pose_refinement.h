@@ -70,6 +70,14 @@ struct PoseRefinementOptions {
   // a keyframe's neighbours at the refined relative poses (refined_relative_poses.h);
   // the points stay at the tracker's pose.
   bool in_fusion = true;
+  // The map places each keyframe's points at its pose corrected by a graph
+  // of all the refined relative poses (keyframe_pose_graph.h): the tracker's
+  // poses as priors (prior_*_sigma), each refined pair's relative rotation
+  // and baseline direction as edges of these std devs. Depth images and
+  // published clouds keep the tracker's pose.
+  bool correct_map_poses = false;
+  double graph_rotation_sigma_deg = 0.05;
+  double graph_direction_sigma_deg = 0.2;
 
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;

@@ -35,6 +35,8 @@ class RefinedRelativePoses {
   // Forgets every pair with the keyframe (it left the store).
   void forget(int64_t id);
   void clear() { poses_.clear(); }
+  // Every pair: (reference, source) -> source-from-reference transform.
+  const std::map<std::pair<int64_t, int64_t>, Eigen::Isometry3d>& pairs() const { return poses_; }
   size_t size() const { return poses_.size(); }
 
  private:
