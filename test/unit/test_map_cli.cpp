@@ -197,12 +197,16 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
   // The fusion at 1 % relative depth, as when these floors were measured: the
   // online default of 2 % (more points for the confidence-masked keyframes)
   // gives 8451 points, 59.4 / 96.3 % within 2 / 5 cm of the true surface here.
-  const CommandResult refined =
-      runTool("amhmvs_map", dir.file("room") + " " + dir.file("refined") + settings +
-                                " --pose_refinement=1 --fusion_max_relative_depth_difference 0.01");
-  ASSERT_EQ(refined.exit_code, 0) << refined.output;
-  std::cout << refined.output;
-  const std::string refined_summary = readText(dir.file("refined/summary.json"));
+  // The summary of a run with pose refinement and `extra` options into `name`/.
+  const auto refinedRun = [&](const std::string& name, const std::string& extra) {
+    const CommandResult run = runTool("amhmvs_map", dir.file("room") + " " + dir.file(name) + settings +
+                                                        " --pose_refinement=1 --fusion_max_relative_depth_difference 0.01" +
+                                                        extra);
+    EXPECT_EQ(run.exit_code, 0) << run.output;
+    std::cout << run.output;
+    return readText(dir.file(name + "/summary.json"));
+  };
+  const std::string refined_summary = refinedRun("refined", "");
   // Measured (CPU): 50.3 / 76.4 / 90.3 / 92.2 % within 1/2/5/10 %,
   // completeness 99.0 %; published: 98.8 % within 5 % at 61.2 %; map 4798
   // points, 58.1 % within 2 cm, 93.1 % within 5 cm of the true surface (the
@@ -229,13 +233,8 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
 
   // And with the rolling shutter rectified (the profile's 25 ms readout;
   // frames 0.5 s apart, as amhmvs_synthetic writes them).
-  const CommandResult rectified =
-      runTool("amhmvs_map", dir.file("room") + " " + dir.file("rectified") + settings +
-                                " --pose_refinement=1 --fusion_max_relative_depth_difference 0.01"
-                                " --frame_period 0.5 --rolling_shutter_s 0.025");
-  ASSERT_EQ(rectified.exit_code, 0) << rectified.output;
-  std::cout << rectified.output;
-  const std::string rectified_summary = readText(dir.file("rectified/summary.json"));
+  const std::string rolling_shutter = " --frame_period 0.5 --rolling_shutter_s 0.025";
+  const std::string rectified_summary = refinedRun("rectified", rolling_shutter);
   // Measured (CPU): 52.8 / 78.7 / 90.1 / 92.1 % within 1/2/5/10 %; map 6583
   // points, 63.9 / 95.2 % within 2 / 5 cm (without: 4798, 58.1 / 93.1 %).
   // At 160 px the readout moves the image by half the pixels it does at 320,
@@ -249,13 +248,7 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
   EXPECT_EQ(jsonNumber(rectified_summary, "stats", "rolling_shutter_not_rectified"), 0) << rectified_summary;
 
   // And the map at the keyframe pose graph's poses (the depth images are the same).
-  const CommandResult graph =
-      runTool("amhmvs_map", dir.file("room") + " " + dir.file("graph") + settings +
-                                " --pose_refinement=1 --fusion_max_relative_depth_difference 0.01"
-                                " --frame_period 0.5 --rolling_shutter_s 0.025 --pose_refinement_correct_map_poses=1");
-  ASSERT_EQ(graph.exit_code, 0) << graph.output;
-  std::cout << graph.output;
-  const std::string graph_summary = readText(dir.file("graph/summary.json"));
+  const std::string graph_summary = refinedRun("graph", rolling_shutter + " --pose_refinement_correct_map_poses=1");
   // Measured (CPU): map 5533 points, 75.3 / 96.0 % within 2 / 5 cm; the
   // exact depth maps at the map's poses 100.0 / 100.0 % (at the tracker's
   // 73.4 / 99.1 %). Fewer points: the keyframes' points now share voxels.
