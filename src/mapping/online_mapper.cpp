@@ -657,10 +657,21 @@ void OnlineMapper::correctMapPoses() {
   settings.rotation_sigma_rad = options.graph_rotation_sigma_deg * kDegree;
   settings.direction_sigma_rad = options.graph_direction_sigma_deg * kDegree;
   map_poses_ = solveKeyframePoseGraph(tracker_poses, edges, settings);
-  for (const auto& entry : map_poses_) {
-    if (!map_.contains(entry.first) && !map_work_.valid()) continue;
-    finishMapWork();
-    if (!map_.contains(entry.first) || map_.pose(entry.first).isApprox(entry.second, 1e-12)) continue;
+  // Each solve moves every keyframe a little; re-posing all points for
+  // changes far below the map's voxels would cost more than the pose
+  // refinement itself: a keyframe moves when it is off by 1 mm or 1e-4 rad
+  // (0.5 mm at 5 m), else it stays where it is placed.
+  constexpr double kMinShiftM = 1e-3, kMinTurnRad = 1e-4;
+  finishMapWork();
+  for (auto& entry : map_poses_) {
+    if (!map_.contains(entry.first)) continue;
+    const Eigen::Isometry3d& placed = map_.pose(entry.first);
+    const bool moved = (placed.translation() - entry.second.translation()).norm() >= kMinShiftM ||
+                       Eigen::AngleAxisd(placed.linear().transpose() * entry.second.linear()).angle() >= kMinTurnRad;
+    if (!moved) {
+      entry.second = placed;
+      continue;
+    }
     map_.updatePose(entry.first, entry.second);
     noteMapChanged();
   }
