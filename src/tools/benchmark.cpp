@@ -27,7 +27,8 @@
 // The scaling rows time the synthetic scene at 4 sizes x 3 source counts; the
 // cpu rows the CPU backend at 320x240 and 640x480 (4 sources, --cpu-threads),
 // the cpu-scaling rows 320x240 at 1, 2, 4 and 8 threads (up to the core count);
-// pose: the pose refinement before stereo (pose_refinement_benchmark.h).
+// pose: the pose refinement before stereo (pose_refinement_benchmark.h) and
+//       the map corrections for real trackers (map_correction_benchmark.h).
 // the multiscale rows the coarse-to-fine driver (2 scales) at 640x480 (GPU)
 // and 320x240 (CPU), 4 sources.
 // DATA_DIR holds mvsnet/fountain_x0.25, fountain_x0.5, fountain_x1 dense
@@ -63,6 +64,7 @@
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 #include "depth_job.h"
+#include "map_correction_benchmark.h"
 #include "pose_refinement_benchmark.h"
 #include "synthetic_problem.h"
 
@@ -600,6 +602,7 @@ int main(int argc, char** argv) {
     }
     if (wants("pose")) {
       online += poseRefinementTable(std::max(runs, 5));
+      online += mapCorrectionTable(std::max(runs, 5));
       save();
     }
     if (only.empty() ? !quick : wants("replay")) online += replayTable(replay_count, !map_foreground, pipeline_multiscale);

@@ -11,7 +11,7 @@
 // velocity w (camera frame), the ray d of an output pixel is seen by the
 // rolling shutter in row y' at
 //     d' = Exp(-w t(y')) d,      y' = row of K d'      (a fixed point, solved
-// by iteration from y' = y), and the output pixel samples the input there.
+// by two iterations from y' = y), and the output pixel samples the input there.
 // w comes from the tracker's poses of the keyframe and the one before it:
 // w = Log(R_prev^T R) / dt (R camera-to-world): the mean over the interval.
 #pragma once
