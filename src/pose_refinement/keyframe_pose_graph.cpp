@@ -6,6 +6,8 @@
 #include <memory>
 #include <string>
 
+#include "pose_prior_residual.h"
+
 namespace amhmvs {
 namespace {
 
@@ -21,19 +23,6 @@ Matrix3<T> correctedRotation(const T* w, const Eigen::Matrix3d& rotation) {
   ceres::AngleAxisToRotationMatrix(w, turn.data());  // column-major, as Eigen's default
   return turn * rotation.cast<T>();
 }
-
-struct PriorResidual {
-  double inverse_rotation_sigma, inverse_position_sigma;
-
-  template <typename T>
-  bool operator()(const T* w, const T* dc, T* residual) const {
-    for (int i = 0; i < 3; ++i) {
-      residual[i] = w[i] * T(inverse_rotation_sigma);
-      residual[3 + i] = dc[i] * T(inverse_position_sigma);
-    }
-    return true;
-  }
-};
 
 struct EdgeResidual {
   Eigen::Matrix3d reference_rotation, source_rotation;  // tracker, camera-to-world
@@ -97,7 +86,7 @@ std::map<int64_t, Eigen::Isometry3d> solveKeyframePoseGraph(const std::map<int64
                              new ceres::HuberLoss(3.0), i.w, i.dc, j.w, j.dc, scale);
   }
   for (auto& entry : corrections) {
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorResidual, 6, 3, 3>(new PriorResidual{
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PosePriorResidual, 6, 3, 3>(new PosePriorResidual{
                                  1 / settings.prior_rotation_sigma_rad, 1 / settings.prior_position_sigma_m}),
                              nullptr, entry.second.w, entry.second.dc);
   }

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include "pose_prior_residual.h"
+
 namespace amhmvs {
 namespace {
 
@@ -55,21 +57,6 @@ struct ReprojectionResidual {
     }
     residual[0] = (projected[0] - T(geometry.pixel[0])) * T(inverse_sigma);
     residual[1] = (projected[1] - T(geometry.pixel[1])) * T(inverse_sigma);
-    return true;
-  }
-};
-
-// The reference's own pose error (w_r, dc_r): a rigid motion of the whole
-// star, which the features cannot see, in units of the tracker's noise.
-struct ReferencePriorResidual {
-  double inverse_rotation_sigma = 1, inverse_position_sigma = 1;
-
-  template <typename T>
-  bool operator()(const T* w_r, const T* dc_r, T* residual) const {
-    for (int i = 0; i < 3; ++i) {
-      residual[i] = w_r[i] * T(inverse_rotation_sigma);
-      residual[3 + i] = dc_r[i] * T(inverse_position_sigma);
-    }
     return true;
   }
 };
@@ -179,10 +166,12 @@ void StarBundleAdjustment::solve(bool poses_free) {
     }
   }
   if (problem.HasParameterBlock(reference_rotation_.data())) {
-    auto* prior = new ReferencePriorResidual;
+    // The reference's own pose error (w_r, dc_r): a rigid motion of the
+    // whole star, which the features cannot see.
+    auto* prior = new PosePriorResidual;
     prior->inverse_rotation_sigma = 1.0 / settings_.prior_rotation_sigma_rad;
     prior->inverse_position_sigma = 1.0 / settings_.prior_position_sigma_m;
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReferencePriorResidual, 6, 3, 3>(prior), nullptr,
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PosePriorResidual, 6, 3, 3>(prior), nullptr,
                              reference_rotation_.data(), reference_shift_.data());
   }
   if (problem.NumResidualBlocks() == 0) return;
