@@ -109,10 +109,9 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe, bool next_follows) {
   const Clock::time_point start = Clock::now();
   KeyframeResult result;
   result.id = keyframe.id;
-  const bool rectified = rectifyRollingShutterImage(&keyframe);
   result.camera = keyframe.camera;
   noteEvicted(store_.add(std::move(keyframe)), &result);
-  noteMotionAnchor(result.id, rectified);
+  rectifyRollingShutter(result.id);
   handOutUndelivered(&result);
   result.times.store_ms = millisecondsSince(start);
   const int64_t id = result.id;
@@ -154,41 +153,37 @@ void OnlineMapper::markSourceOnly(int64_t id, KeyframeResult* result) {
 std::vector<int64_t> OnlineMapper::addSourceView(Keyframe keyframe) {
   KeyframeResult result;
   const int64_t id = keyframe.id;
-  const bool rectified = rectifyRollingShutterImage(&keyframe);
   noteEvicted(store_.add(std::move(keyframe)), &result);
-  noteMotionAnchor(id, rectified);
+  rectifyRollingShutter(id);
   markSourceOnly(id, &result);
   return result.evicted;
 }
 
-bool OnlineMapper::rectifyRollingShutterImage(Keyframe* keyframe) {
+void OnlineMapper::rectifyRollingShutter(int64_t id) {
   const RollingShutterOptions& options = options_.rolling_shutter;
-  // An invalid keyframe or a stamp that goes back: the store refuses it and says why.
-  if (!options.enabled() || !keyframe->validate().empty()) return false;
-  if (motion_anchor_.set && keyframe->stamp < motion_anchor_.stamp) return false;
-  const double interval = keyframe->stamp - motion_anchor_.stamp;
-  if (!motion_anchor_.set || !(interval > 0) || interval > options.max_interval_s) {
-    ++rolling_shutter_not_rectified_;
-    return false;
-  }
-  const Eigen::Vector3d angular_velocity = cameraAngularVelocity(motion_anchor_.camera, keyframe->camera, interval);
-  keyframe->image = rectifyRollingShutter(keyframe->image, keyframe->camera, angular_velocity, options.readout_s);
-  ++rolling_shutter_rectified_;
-  const int64_t previous = motion_anchor_.id;
-  if (!motion_anchor_.rectified && motion_anchor_.estimates_started == estimates_started_ &&
-      store_.contains(previous)) {
-    const Keyframe& stored = store_.keyframe(previous);
-    store_.replaceImage(previous, rectifyRollingShutter(stored.image, stored.camera, angular_velocity, options.readout_s));
-    --rolling_shutter_not_rectified_;
-    ++rolling_shutter_rectified_;
-  }
-  return true;
-}
-
-void OnlineMapper::noteMotionAnchor(int64_t id, bool rectified) {
-  if (!options_.rolling_shutter.enabled()) return;
+  if (!options.enabled()) return;
+  const MotionAnchor previous = motion_anchor_;
   const Keyframe& stored = store_.keyframe(id);
-  motion_anchor_ = {true, id, stored.stamp, stored.camera, rectified, estimates_started_};
+  motion_anchor_ = {true, id, stored.stamp, stored.camera, false, estimates_started_};
+  const double interval = stored.stamp - previous.stamp;
+  if (!previous.set || !(interval > 0) || interval > options.max_interval_s) {
+    ++rolling_shutter_not_rectified_;
+    return;
+  }
+  const Eigen::Vector3d angular_velocity = cameraAngularVelocity(previous.camera, stored.camera, interval);
+  const auto rectifyStored = [&](int64_t key) {
+    const Keyframe& keyframe = store_.keyframe(key);
+    store_.replaceImage(key, amhmvs::rectifyRollingShutter(keyframe.image, keyframe.camera, angular_velocity,
+                                                           options.readout_s));
+    ++rolling_shutter_rectified_;
+  };
+  rectifyStored(id);
+  motion_anchor_.rectified = true;
+  // The first keyframe of a run had no motion to go by; nothing has read its image yet.
+  if (!previous.rectified && previous.estimates_started == estimates_started_ && store_.contains(previous.id)) {
+    rectifyStored(previous.id);
+    --rolling_shutter_not_rectified_;
+  }
 }
 
 bool OnlineMapper::fuseDeferred(KeyframeResult* result) {
@@ -320,7 +315,7 @@ void OnlineMapper::estimateStored(int64_t id, SourceSelection selection, bool la
 }
 
 void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult* result) {
-  ++estimates_started_;  // images are read from here on (rectifyRollingShutterImage)
+  ++estimates_started_;  // images are read from here on (rectifyRollingShutter)
   const std::vector<int64_t>& sources = result->selection.source_ids;
   Clock::time_point start = Clock::now();
   result->depth_range = estimateDepthRange(store_, id, sources, options_.depth_range);

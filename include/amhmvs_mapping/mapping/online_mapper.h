@@ -63,8 +63,8 @@
 #include <functional>
 #include <future>
 #include <map>
-#include <set>
 #include <memory>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -401,11 +401,10 @@ class OnlineMapper {
   size_t requiredConsistencyViews() const;
   // Marks stored keyframe `id` done without depth (a source only).
   void markSourceOnly(int64_t id, KeyframeResult* result);
-  // Rolling shutter: rectifies a valid keyframe before it is stored (and the
-  // keyframe before it when that one could not be and nothing read it yet);
-  // then notes it as the motion anchor of the next.
-  bool rectifyRollingShutterImage(Keyframe* keyframe);
-  void noteMotionAnchor(int64_t id, bool rectified);
+  // Rolling shutter: rectifies a keyframe just stored, in the store (and the
+  // keyframe before it when that one could not be and nothing read it yet),
+  // and notes it as the motion anchor of the next.
+  void rectifyRollingShutter(int64_t id);
   // Drops a keyframe that left the store from every list and cache (not the map).
   struct Forgotten {
     bool was_waiting_for_sources = false;
