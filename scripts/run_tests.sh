@@ -165,6 +165,13 @@ if [ -f "$bag" ]; then
   if [ -d "$data/redkitchen_7scenes" ]; then
     python3 "$here/scripts/seven_scenes_to_bag.py" "$data/redkitchen_7scenes" "$kitchen_bag"
   fi
+  # realism: issue 12's realism room (tracker noise, rolling shutter, blur)
+  # rendered here and written as a bag, its true cameras and depth kept
+  realism_dir=$build/realism_room8
+  realism_bag=$build/bags/realism_room8.bag
+  "$build/devel/lib/amhmvs_mapping/amhmvs_synthetic" "$realism_dir" --scene room --views 8 --realism default \
+    > "$build/realism_room8.log" 2>&1 || { tail -5 "$build/realism_room8.log"; status=1; }
+  python3 "$here/scripts/dense_folder_to_bag.py" "$realism_dir" "$realism_bag"
   # name, test file, launch arguments
   for run in "fountain_manager_pose replay_fountain.test standalone:=false input_mode:=pose" \
              "fountain_standalone_tf replay_fountain.test standalone:=true input_mode:=tf" \
@@ -179,6 +186,7 @@ if [ -f "$bag" ]; then
              "fountain_shipped_defaults replay_fountain.test defaults:=true" \
              "temple_shipped_defaults replay_map.test scene:=temple defaults:=true" \
              "redkitchen_shipped_defaults replay_map.test scene:=redkitchen defaults:=true bag:=$kitchen_bag" \
+             "realism_tracker_settings replay_map.test scene:=realism bag:=$realism_bag truth_dir:=$realism_dir" \
              "depth_interop depth_interop.test" \
              "fountain_compressed_jpeg replay_fountain.test compressed:=jpeg" \
              "replay_part replay_part.test"; do
@@ -193,7 +201,7 @@ if [ -f "$bag" ]; then
 else
   echo "rostest: skipped, no bag at $bag"
   ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped
-             skipped skipped skipped)
+             skipped skipped skipped skipped)
 fi
 
 # The package the way a ROS user builds it: in a fresh catkin workspace

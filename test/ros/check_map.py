@@ -10,8 +10,15 @@ empty, and (with ~bbox) that every map point lies in the box widened by
 stamps, e.g. a bag's /camera/depth_gt), each keyframe's last depth image is
 compared with the truth of its stamp where both have depth: the pooled median
 relative error at most ~max_median_error, at least ~min_within_10pct percent
-within 10 %."""
+within 10 %. With ~min_counters (a dict), each named diagnostics counter is
+at least its value. With ~truth_dense_dir (an MVSNet dense folder with the
+true cameras in cams_gt/ and z-depth in depth_gt/, as amhmvs_synthetic
+writes), the last map is judged against the true surface: at least
+~min_map_within_2cm percent of its points (up to ~map_sample points, evenly
+spaced) within 2 cm of a point of the back-projected true depth."""
+import glob
 import math
+import os
 import struct
 import sys
 import unittest
@@ -52,6 +59,10 @@ class MapReplay(unittest.TestCase):
         cls.truth = watch.record(cls.truth_topic, Image) if cls.truth_topic else []
         cls.max_median_error = rospy.get_param('~max_median_error', 1.0)
         cls.min_within_10pct = rospy.get_param('~min_within_10pct', 0.0)
+        cls.min_counters = rospy.get_param('~min_counters', {})
+        cls.truth_dense_dir = rospy.get_param('~truth_dense_dir', '')
+        cls.min_map_within_2cm = rospy.get_param('~min_map_within_2cm', 0.0)
+        cls.map_sample = rospy.get_param('~map_sample', 5000)
 
         def processed():  # idle: every late depth map is out too
             return watch.count('keyframes_received') >= cls.expected and watch.diagnostics.get('idle') == 'True'
@@ -146,6 +157,85 @@ class MapReplay(unittest.TestCase):
                       100.0 * sum(1 for e in errors if e <= 0.05) / len(errors), within, len(errors))
         self.assertLessEqual(median, self.max_median_error)
         self.assertGreaterEqual(within, self.min_within_10pct)
+
+    def test_06_counters(self):
+        if not self.min_counters:
+            self.skipTest('no ~min_counters')
+        for name, floor in self.min_counters.items():
+            self.assertGreaterEqual(int(self.diagnostics.get(name, -1)), floor, (name, self.diagnostics))
+
+    def test_07_map_against_true_surface(self):
+        if not self.truth_dense_dir:
+            self.skipTest('no ~truth_dense_dir')
+        self.assertTrue(self.maps, 'no map received')
+        points = list(pc2.read_points(self.maps[-1], field_names=('x', 'y', 'z')))
+        step = max(1, len(points) // self.map_sample)
+        sample = points[::step]
+        surface = SurfaceIndex(true_surface(self.truth_dense_dir), 0.02)
+        within = 100.0 * sum(1 for p in sample if surface.within(p)) / len(sample)
+        rospy.loginfo('check_map: map %d points, %.1f %% of %d sampled within 2 cm of the true surface', len(points),
+                      within, len(sample))
+        self.assertGreaterEqual(within, self.min_map_within_2cm)
+
+
+def read_mvsnet_cam(path):
+    """Camera-to-world rotation, centre and (fx, fy, cx, cy) of an MVSNet cam.txt."""
+    words = open(path).read().split()
+    e = [float(w) for w in words[words.index('extrinsic') + 1:][:16]]
+    k = [float(w) for w in words[words.index('intrinsic') + 1:][:9]]
+    rotation = [[e[0], e[1], e[2]], [e[4], e[5], e[6]], [e[8], e[9], e[10]]]  # world to camera
+    t = [e[3], e[7], e[11]]
+    centre = [-sum(rotation[r][i] * t[r] for r in range(3)) for i in range(3)]
+    return rotation, centre, (k[0], k[4], k[2], k[5])
+
+
+def read_pfm(path):
+    """Width, height and rows (top first) of a one-channel PFM."""
+    with open(path, 'rb') as f:
+        data = f.read()
+    header, size, scale, body = data.split(b'\n', 3)
+    width, height = map(int, size.split())
+    values = struct.unpack(('<' if float(scale) < 0 else '>') + '%df' % (width * height), body[:4 * width * height])
+    return width, height, [values[(height - 1 - v) * width:(height - v) * width] for v in range(height)]
+
+
+def true_surface(dense_dir, stride=1):
+    """World points of every view's true depth (every stride-th pixel)."""
+    points = []
+    for cam in sorted(glob.glob(os.path.join(dense_dir, 'cams_gt', '*_cam.txt'))):
+        rotation, centre, (fx, fy, cx, cy) = read_mvsnet_cam(cam)
+        name = os.path.basename(cam)[:-len('_cam.txt')]
+        width, height, rows = read_pfm(os.path.join(dense_dir, 'depth_gt', name + '.pfm'))
+        for v in range(0, height, stride):
+            for u in range(0, width, stride):
+                z = rows[v][u]
+                if not (z > 0 and math.isfinite(z)):
+                    continue
+                x = ((u - cx) / fx * z, (v - cy) / fy * z, z)
+                points.append(tuple(sum(rotation[r][i] * x[r] for r in range(3)) + centre[i] for i in range(3)))
+    if not points:
+        raise AssertionError(dense_dir + ': no true depth (cams_gt/, depth_gt/)')
+    return points
+
+
+class SurfaceIndex:
+    """Points in cubic cells of the radius: is a query within the radius of one?"""
+
+    def __init__(self, points, radius):
+        self.radius = radius
+        self.cells = {}
+        for p in points:
+            self.cells.setdefault(self.cell(p), []).append(p)
+
+    def cell(self, p):
+        return tuple(int(math.floor(c / self.radius)) for c in p)
+
+    def within(self, p):
+        cx, cy, cz = self.cell(p)
+        r2 = self.radius * self.radius
+        return any(sum((a - b) ** 2 for a, b in zip(p, q)) <= r2
+                   for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
+                   for q in self.cells.get((cx + dx, cy + dy, cz + dz), ()))
 
 
 def relative_errors(depth, truth):
