@@ -8,6 +8,7 @@
 #include <sstream>
 #include <string>
 
+#include "amhmvs_mapping/mapping/online_mapper.h"
 #include "amhmvs_mapping/mapping/pose_refinement.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
 
@@ -51,6 +52,21 @@ TEST(MappingConfigDoc, EveryEstimatorOptionDocumentedWithItsDefault) {
 
 TEST(MappingConfigDoc, EveryPoseRefinementOptionDocumentedWithItsDefault) {
   expectDocumented("pose_refinement", amhmvs::poseRefinementOptionTable());
+}
+
+// The refinement section (no option table: the nodelet reads it field by
+// field) with RefinementOptions' defaults, as the yaml's text gives them.
+TEST(MappingConfigDoc, RefinementSectionHasTheDefaults) {
+  const amhmvs::RefinementOptions defaults;
+  std::map<std::string, std::string> documented = documentedOptions("refinement");
+  const auto flag = [](bool value) { return std::string(value ? "true" : "false"); };
+  EXPECT_EQ(documented["max_refinements"], std::to_string(defaults.max_refinements));
+  EXPECT_EQ(std::stod(documented["min_score_gain"]), defaults.min_score_gain);
+  EXPECT_EQ(documented["keep_only_better"], flag(defaults.keep_only_better));
+  EXPECT_EQ(std::stod(documented["confident_cost"]), defaults.confident_cost);
+  EXPECT_EQ(std::stod(documented["max_confident_loss"]), defaults.max_confident_loss);
+  EXPECT_EQ(documented["fuse_neighbours_again"], flag(defaults.fuse_neighbours_again));
+  EXPECT_EQ(documented.size(), 6u);
 }
 
 }  // namespace
