@@ -210,7 +210,7 @@ std::string mapToolUsage() {
          "                       counts (the first keyframes of a run; idle work during the next\n"
          "                       8 depth maps; default 1)\n"
          "  --fuse_neighbours_again[=0|1]  fuse a keyframe again when a refinement replaced the\n"
-         "                       depth map of one of its consistency views (idle work; default 1)\n"
+         "                       depth map of one of its consistency views (idle work; default 0)\n"
          "  --rolling_shutter_s S  the camera's rolling-shutter readout, first to last row:\n"
          "                       each keyframe image is rectified for the rotation during it\n"
          "                       (angular velocity from the poses of the keyframe before it,\n"

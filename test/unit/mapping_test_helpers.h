@@ -71,10 +71,6 @@ inline OnlineMapperOptions wallOptions() {
   options.sources.default_scene_depth = kWallZ;
   options.sources.min_overlap = 0.3;
   options.map.leaf_size = 0.05;
-  // The scheduling tests count each refine() step; fusing again after a
-  // neighbour's refinement (on by default) is idle work of its own, tested on
-  // and off in OnlineMapper.KeyframeFusedAgainstAReplacedDepthMapIsFusedAgainWhenAsked.
-  options.refinement.fuse_neighbours_again = false;
   return options;
 }
 

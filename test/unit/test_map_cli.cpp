@@ -175,9 +175,9 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
   // noise (2.6 px at 320 px) costs the most; issue 12 is to win it back.
   // Without fusing the first keyframes again when more views see them
   // (--confidence_again_with_more_views=0, before session 9): published
-  // 51.0 % within 5 % at 19.8 %, map 71 points, 94.4 / 97.2 %. Session 14,
-  // fusing again after the neighbours' refinements (now the default):
-  // published 46.0 % within 5 % at 32.1 %, map 95 points, 93.7 / 97.9 %.
+  // 51.0 % within 5 % at 19.8 %, map 71 points, 94.4 / 97.2 %. With
+  // --fuse_neighbours_again (off by default): published 46.0 % within 5 %
+  // at 32.1 %, map 95 points, 93.7 / 97.9 %.
   // The map is judged against the true surface (the depth at the true poses,
   // cams_gt/), not the truth moved by the tracker's error: the exact depth
   // maps placed at the tracker's poses, the best a map at those poses can do,
@@ -199,14 +199,10 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
   // The fusion at 1 % relative depth, as when these floors were measured: the
   // online default of 2 % (more points for the confidence-masked keyframes)
   // gives 8451 points, 59.4 / 96.3 % within 2 / 5 cm of the true surface here.
-  // Without fusing again after the neighbours' refinements, as when these
-  // floors were measured (sessions 11-13; the default since session 14, the
-  // last run below).
   // The summary of a run with pose refinement and `extra` options into `name`/.
   const auto refinedRun = [&](const std::string& name, const std::string& extra) {
     const CommandResult run = runTool("amhmvs_map", dir.file("room") + " " + dir.file(name) + settings +
-                                                        " --pose_refinement=1 --fusion_max_relative_depth_difference 0.01"
-                                                        " --fuse_neighbours_again=0" +
+                                                        " --pose_refinement=1 --fusion_max_relative_depth_difference 0.01" +
                                                         extra);
     EXPECT_EQ(run.exit_code, 0) << run.output;
     std::cout << run.output;
@@ -269,13 +265,12 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
               jsonNumber(rectified_summary, "depth_accuracy", "within_5pct"), 1e-9);
 
   // And each keyframe fused again once a refinement replaced a depth map it
-  // was checked against (the default since session 14). Measured (CPU): map
+  // was checked against (--fuse_neighbours_again, off by default; README
+  // "Settings that matter behind a real tracker"). Measured (CPU): map
   // 4028 points, 78.7 / 97.2 % within 2 / 5 cm, 9 fusions again (the graph
-  // run above: 3). At 160 px the rectified run alone then gains nothing
-  // within 2 cm over the refined one (63.9 against 66.6 %; at 320 px 54.4
-  // against 43.0 %, README), so the comparisons above pin it off.
+  // run above: 3).
   const std::string again_summary =
-      refinedRun("again", rolling_shutter + " --pose_refinement_correct_map_poses=1 --fuse_neighbours_again=1");
+      refinedRun("again", rolling_shutter + " --pose_refinement_correct_map_poses=1 --fuse_neighbours_again");
   expectAbove(again_summary, {{"map", "points", 3500},
                               {"map", "within_2cm_pct", 70},
                               {"map", "within_5cm_pct", 90}});
@@ -402,8 +397,7 @@ TEST(MapCli, RedkitchenSevenScenesAgainstKinectDepth) {
   const CommandResult r = runTool(
       "amhmvs_map", sequence + " " + out.path() +
                         " --backend cpu --max_image_size 160 --count 40 --iterations 3 --intrinsics fitted7scenes"
-                        " --color_offset=-0.010,0,0 --depth_min 0.5 --depth_max 4.5 --scene_depth 2 --num_sources 4"
-                        " --fuse_neighbours_again=0");
+                        " --color_offset=-0.010,0,0 --depth_min 0.5 --depth_max 4.5 --scene_depth 2 --num_sources 4");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   std::cout << r.output;
   const std::string summary = readText(out.file("summary.json"));
@@ -414,10 +408,9 @@ TEST(MapCli, RedkitchenSevenScenesAgainstKinectDepth) {
   // Without fusing the first keyframes again when more views see them
   // (--confidence_again_with_more_views=0, before session 9): published
   // 73.1 / 88.0 % at 26.7 %, map 919 points, 30.8 / 92.3 %.
-  // The floors were measured without fusing again after the neighbours'
-  // refinements, so it is pinned off. With it (the default since session
-  // 14, better at 320 px and 60 frames: README) this small run gives
-  // published 72.8 / 87.3 % at 39.7 %, map 1124 points, 30.6 / 90.5 %.
+  // With --fuse_neighbours_again (off by default; better at 320 px and 60
+  // frames: README) this small run gives published 72.8 / 87.3 % at 39.7 %,
+  // map 1124 points, 30.6 / 90.5 %.
   EXPECT_EQ(jsonNumber(summary, "", "keyframes_picked"), 8) << summary;
   EXPECT_EQ(jsonNumber(summary, "results", "new") + jsonNumber(summary, "results", "late"), 8) << summary;
   expectAbove(summary, {{"depth_accuracy", "within_5pct", 45},

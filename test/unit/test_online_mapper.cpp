@@ -514,7 +514,7 @@ TEST(OnlineMapper, KeyframeFusedFirstWithoutPointsIsFusedAgainWhenRefined) {
 // nothing, so it gets no point; the refinements then replace 0's and 1's
 // depth maps. With refinement.fuse_neighbours_again keyframe 2 is fused
 // again against them (once, after the refinements) and reaches the map;
-// without, it keeps its empty fusion. On is the default since session 14.
+// without, it keeps its empty fusion.
 TEST(OnlineMapper, KeyframeFusedAgainstAReplacedDepthMapIsFusedAgainWhenAsked) {
   for (const bool again : {false, true}) {
     OnlineMapperOptions options = wallOptions();

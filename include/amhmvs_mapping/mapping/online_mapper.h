@@ -100,9 +100,9 @@ struct RefinementOptions {
   // Keyframes fused against a depth map that a refinement then replaced are
   // fused again (idle work, after the refinements): their agreement was
   // checked against the old map (the last keyframe of a run is never refined
-  // itself, but its consistency views are). On by default since session 14
-  // (README "Settings that matter behind a real tracker").
-  bool fuse_neighbours_again = true;
+  // itself, but its consistency views are). Off by default: README
+  // "Settings that matter behind a real tracker" says why.
+  bool fuse_neighbours_again = false;
   double confident_cost = 0.5;
   double max_confident_loss = 0.02;
 
