@@ -23,12 +23,16 @@ import struct
 import sys
 import unittest
 
+import numpy as np
+
 import rospy
 import rostest
 from sensor_msgs.msg import CameraInfo, Image, PointCloud2
 import sensor_msgs.point_cloud2 as pc2
 
 from node_watch import NodeWatch
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'scripts'))
+from dense_folder_to_bag import read_cam, read_pfm  # noqa: E402  (the writer's readers of the truth)
 
 
 class MapReplay(unittest.TestCase):
@@ -178,41 +182,20 @@ class MapReplay(unittest.TestCase):
         self.assertGreaterEqual(within, self.min_map_within_2cm)
 
 
-def read_mvsnet_cam(path):
-    """Camera-to-world rotation, centre and (fx, fy, cx, cy) of an MVSNet cam.txt."""
-    words = open(path).read().split()
-    e = [float(w) for w in words[words.index('extrinsic') + 1:][:16]]
-    k = [float(w) for w in words[words.index('intrinsic') + 1:][:9]]
-    rotation = [[e[0], e[1], e[2]], [e[4], e[5], e[6]], [e[8], e[9], e[10]]]  # world to camera
-    t = [e[3], e[7], e[11]]
-    centre = [-sum(rotation[r][i] * t[r] for r in range(3)) for i in range(3)]
-    return rotation, centre, (k[0], k[4], k[2], k[5])
-
-
-def read_pfm(path):
-    """Width, height and rows (top first) of a one-channel PFM."""
-    with open(path, 'rb') as f:
-        data = f.read()
-    header, size, scale, body = data.split(b'\n', 3)
-    width, height = map(int, size.split())
-    values = struct.unpack(('<' if float(scale) < 0 else '>') + '%df' % (width * height), body[:4 * width * height])
-    return width, height, [values[(height - 1 - v) * width:(height - v) * width] for v in range(height)]
-
-
-def true_surface(dense_dir, stride=1):
-    """World points of every view's true depth (every stride-th pixel)."""
+def true_surface(dense_dir):
+    """World points of every view's true depth (the readers of
+    scripts/dense_folder_to_bag.py, which wrote the bag from the same folder)."""
     points = []
     for cam in sorted(glob.glob(os.path.join(dense_dir, 'cams_gt', '*_cam.txt'))):
-        rotation, centre, (fx, fy, cx, cy) = read_mvsnet_cam(cam)
+        world_to_camera, intrinsic = read_cam(cam)
         name = os.path.basename(cam)[:-len('_cam.txt')]
-        width, height, rows = read_pfm(os.path.join(dense_dir, 'depth_gt', name + '.pfm'))
-        for v in range(0, height, stride):
-            for u in range(0, width, stride):
-                z = rows[v][u]
-                if not (z > 0 and math.isfinite(z)):
-                    continue
-                x = ((u - cx) / fx * z, (v - cy) / fy * z, z)
-                points.append(tuple(sum(rotation[r][i] * x[r] for r in range(3)) + centre[i] for i in range(3)))
+        depth = read_pfm(os.path.join(dense_dir, 'depth_gt', name + '.pfm'))
+        v, u = np.nonzero(np.isfinite(depth) & (depth > 0))
+        z = depth[v, u]
+        camera_points = np.stack([(u - intrinsic[0, 2]) / intrinsic[0, 0] * z,
+                                  (v - intrinsic[1, 2]) / intrinsic[1, 1] * z, z], axis=1)
+        rotation, translation = world_to_camera[:3, :3], world_to_camera[:3, 3]
+        points.extend(map(tuple, (camera_points - translation) @ rotation))  # R^T (x - t), row-wise
     if not points:
         raise AssertionError(dense_dir + ': no true depth (cams_gt/, depth_gt/)')
     return points
