@@ -30,14 +30,16 @@ struct MappingConfig {
   double sync_max_interval = 0.05;   // seconds between synchronised stamps
   // Keyframe picking (pose, odometry and tf modes; mapping/keyframe_picker.h):
   // a frame is a candidate when it moved at least this far from the last
-  // keyframe (either criterion) ...
-  double keyframe_min_translation = 0.1;   // metres
-  double keyframe_min_rotation_deg = 10.0; // degrees
+  // keyframe (either criterion) ... The defaults are the core picker's, the
+  // ones amhmvs_map uses: 5 cm / 5 deg (10 cm / 10 deg until session 16 left
+  // the redkitchen bag's last keyframes with sources too far apart).
+  double keyframe_min_translation = amhmvs::KeyframePickerOptions().min_translation_m;    // metres
+  double keyframe_min_rotation_deg = amhmvs::KeyframePickerOptions().min_rotation_deg;  // degrees
   // ... and is refused as a pure rotation when it moved less than this
   // fraction of keyframe_min_translation (0: off), or as blurred when its
   // sharpness is below this fraction of the recent candidates' median (0: off).
-  double keyframe_min_turning_translation = 0.5;
-  double keyframe_min_relative_sharpness = 0.8;
+  double keyframe_min_turning_translation = amhmvs::KeyframePickerOptions().min_turning_translation_fraction;
+  double keyframe_min_relative_sharpness = amhmvs::KeyframePickerOptions().min_relative_sharpness;
 
   amhmvs::KeyframePickerOptions keyframePicking() const;
 
