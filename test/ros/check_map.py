@@ -15,7 +15,11 @@ at least its value. With ~truth_dense_dir (an MVSNet dense folder with the
 true cameras in cams_gt/ and z-depth in depth_gt/, as amhmvs_synthetic
 writes), the last map is judged against the true surface: at least
 ~min_map_within_2cm percent of its points (up to ~map_sample points, evenly
-spaced) within 2 cm of a point of the back-projected true depth."""
+spaced) within 2 cm of a point of the back-projected true depth. With
+~min_map_within_5cm and ~truth_topic, the last map is judged against the
+surface of the truth images themselves (every other pixel of each,
+back-projected with the camera_info and the pose topic of its stamp, e.g. the
+Kinect depth of a 7-Scenes bag): at least that percent within 5 cm."""
 import glob
 import math
 import os
@@ -27,6 +31,7 @@ import numpy as np
 
 import rospy
 import rostest
+from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import CameraInfo, Image, PointCloud2
 import sensor_msgs.point_cloud2 as pc2
 
@@ -67,6 +72,10 @@ class MapReplay(unittest.TestCase):
         cls.truth_dense_dir = rospy.get_param('~truth_dense_dir', '')
         cls.min_map_within_2cm = rospy.get_param('~min_map_within_2cm', 0.0)
         cls.map_sample = rospy.get_param('~map_sample', 5000)
+        cls.min_map_within_5cm = rospy.get_param('~min_map_within_5cm', 0.0)
+        if cls.min_map_within_5cm > 0:
+            cls.poses = watch.record(rospy.get_param('~pose_topic', '/camera/pose'), PoseStamped)
+            cls.camera_infos = watch.record(rospy.get_param('~camera_info_topic', '/camera/camera_info'), CameraInfo)
 
         def processed():  # idle: every late depth map is out too
             return watch.count('keyframes_received') >= cls.expected and watch.diagnostics.get('idle') == 'True'
@@ -171,21 +180,37 @@ class MapReplay(unittest.TestCase):
     def test_07_map_against_true_surface(self):
         if not self.truth_dense_dir:
             self.skipTest('no ~truth_dense_dir')
+        within = self.map_within(true_surface(self.truth_dense_dir), 0.02, 'the true surface')
+        self.assertGreaterEqual(within, self.min_map_within_2cm)
+
+    def test_08_map_against_truth_images(self):
+        if not (self.min_map_within_5cm > 0 and self.truth_topic):
+            self.skipTest('no ~min_map_within_5cm with a ~truth_topic')
+        poses = {m.header.stamp: m.pose for m in self.poses}
+        infos = {m.header.stamp: m for m in self.camera_infos}
+        usable = [m for m in self.truth if m.header.stamp in poses and m.header.stamp in infos]
+        self.assertEqual(len(usable), len(self.truth), 'a truth image without the pose or camera_info of its stamp')
+        points = np.concatenate([truth_image_points(m, infos[m.header.stamp], poses[m.header.stamp]) for m in usable])
+        within = self.map_within(points, 0.05, 'the surface of %d truth images' % len(usable))
+        self.assertGreaterEqual(within, self.min_map_within_5cm)
+
+    def map_within(self, surface_points, radius, surface_name):
+        """Percent of the last map's sampled points within `radius` of a surface point."""
         self.assertTrue(self.maps, 'no map received')
         points = list(pc2.read_points(self.maps[-1], field_names=('x', 'y', 'z')))
         step = max(1, len(points) // self.map_sample)
         sample = points[::step]
-        surface = SurfaceIndex(true_surface(self.truth_dense_dir), 0.02)
+        surface = SurfaceIndex(surface_points, radius)
         within = 100.0 * sum(1 for p in sample if surface.within(p)) / len(sample)
-        rospy.loginfo('check_map: map %d points, %.1f %% of %d sampled within 2 cm of the true surface', len(points),
-                      within, len(sample))
-        self.assertGreaterEqual(within, self.min_map_within_2cm)
+        rospy.loginfo('check_map: map %d points, %.1f %% of %d sampled within %g cm of %s', len(points), within,
+                      len(sample), 100 * radius, surface_name)
+        return within
 
 
 def true_surface(dense_dir):
     """World points of every view's true depth (the readers of
     scripts/dense_folder_to_bag.py, which wrote the bag from the same folder)."""
-    points = []
+    points = []  # one array per view
     for cam in sorted(glob.glob(os.path.join(dense_dir, 'cams_gt', '*_cam.txt'))):
         world_to_camera, intrinsic = read_cam(cam)
         name = os.path.basename(cam)[:-len('_cam.txt')]
@@ -195,10 +220,30 @@ def true_surface(dense_dir):
         camera_points = np.stack([(u - intrinsic[0, 2]) / intrinsic[0, 0] * z,
                                   (v - intrinsic[1, 2]) / intrinsic[1, 1] * z, z], axis=1)
         rotation, translation = world_to_camera[:3, :3], world_to_camera[:3, 3]
-        points.extend(map(tuple, (camera_points - translation) @ rotation))  # R^T (x - t), row-wise
+        points.append((camera_points - translation) @ rotation)  # R^T (x - t), row-wise
     if not points:
         raise AssertionError(dense_dir + ': no true depth (cams_gt/, depth_gt/)')
-    return points
+    return np.concatenate(points)
+
+
+def truth_image_points(truth, info, pose):
+    """World points of every other pixel of a 32FC1 truth image with depth,
+    through its camera_info's K and its camera-to-world pose."""
+    depth = np.frombuffer(bytes(truth.data), dtype='<f4').reshape(truth.height, truth.width)[::2, ::2]
+    v, u = np.nonzero(np.isfinite(depth) & (depth > 0))
+    z = depth[v, u].astype(np.float64)
+    u, v = 2.0 * u, 2.0 * v
+    scale = truth.width / float(info.width)  # K of the camera_info's size, at the truth's
+    fx, fy = info.K[0] * scale, info.K[4] * scale
+    cx, cy = (info.K[2] + 0.5) * scale - 0.5, (info.K[5] + 0.5) * scale - 0.5
+    camera_points = np.stack([(u - cx) / fx * z, (v - cy) / fy * z, z], axis=1)
+    q = pose.orientation
+    x, y, zq, w = q.x, q.y, q.z, q.w
+    rotation = np.array([[1 - 2 * (y * y + zq * zq), 2 * (x * y - zq * w), 2 * (x * zq + y * w)],
+                         [2 * (x * y + zq * w), 1 - 2 * (x * x + zq * zq), 2 * (y * zq - x * w)],
+                         [2 * (x * zq - y * w), 2 * (y * zq + x * w), 1 - 2 * (x * x + y * y)]])
+    position = np.array([pose.position.x, pose.position.y, pose.position.z])
+    return camera_points @ rotation.T + position
 
 
 class SurfaceIndex:
@@ -206,19 +251,28 @@ class SurfaceIndex:
 
     def __init__(self, points, radius):
         self.radius = radius
-        self.cells = {}
-        for p in points:
-            self.cells.setdefault(self.cell(p), []).append(p)
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        keys = np.floor(points / radius).astype(np.int64)
+        order = np.lexsort(keys.T[::-1])
+        keys, points = keys[order], points[order]
+        starts = np.flatnonzero(np.r_[True, np.any(keys[1:] != keys[:-1], axis=1)])
+        ends = np.r_[starts[1:], len(points)]
+        self.cells = {tuple(int(k) for k in keys[a]): points[a:b] for a, b in zip(starts, ends)}
 
     def cell(self, p):
         return tuple(int(math.floor(c / self.radius)) for c in p)
 
     def within(self, p):
         cx, cy, cz = self.cell(p)
+        q = np.asarray(p, dtype=np.float64)
         r2 = self.radius * self.radius
-        return any(sum((a - b) ** 2 for a, b in zip(p, q)) <= r2
-                   for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
-                   for q in self.cells.get((cx + dx, cy + dy, cz + dz), ()))
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                for dz in (-1, 0, 1):
+                    cell = self.cells.get((cx + dx, cy + dy, cz + dz))
+                    if cell is not None and np.min(np.sum((cell - q) ** 2, axis=1)) <= r2:
+                        return True
+        return False
 
 
 def relative_errors(depth, truth):
