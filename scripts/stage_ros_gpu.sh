@@ -48,89 +48,8 @@ strip "$tree/bin/nodelet_replay"
 echo "== libraries"
 cp "$build/devel/lib/libamhmvs_mapping_nodelet.so" "$build/devel/lib/libamhmvs_core.so" "$tree/lib/"
 cp "$multiarch/ros/libimage_transport_plugins.so" "$multiarch/ros/librosbag_default_encryption_plugins.so" "$tree/lib/"
-python3 - "$tree" "$build/devel/lib" <<'EOF'
-import os, re, shutil, subprocess, sys
-tree, devel = sys.argv[1], sys.argv[2]
-lib = os.path.join(tree, 'lib')
-# From the target system (glibc and the compiler's runtime, newer there).
-SYSTEM = {'libc.so.6', 'libm.so.6', 'libpthread.so.0', 'libdl.so.2', 'librt.so.1', 'libresolv.so.2',
-          'ld-linux-x86-64.so.2', 'libstdc++.so.6', 'libgcc_s.so.1'}
-STUBS = {'libgdal.so.32', 'libgdcmMSFF.so.3.0', 'libgdcmDSED.so.3.0', 'libOpenEXR-3_1.so.30'}
-DIRS = [devel, '/usr/local/cuda/lib64', '/usr/local/cuda/lib', '/lib/x86_64-linux-gnu', '/usr/lib/x86_64-linux-gnu',
-        '/lib', '/usr/lib']
-
-def needed(path):
-    out = subprocess.run(['readelf', '-dW', path], capture_output=True, text=True, check=True).stdout
-    return re.findall(r'\(NEEDED\).*\[(.*)\]', out)
-
-def find(name):
-    for d in DIRS:
-        p = os.path.join(d, name)
-        if os.path.exists(p):
-            return p
-    sys.exit('library not found: ' + name)
-
-roots = [os.path.join(tree, 'bin', 'nodelet_replay')] + [os.path.join(lib, f) for f in os.listdir(lib)]
-kept, stubbed_by = {}, {}   # soname -> source path; stub -> libraries needing it
-todo = list(roots)
-while todo:
-    path = todo.pop()
-    for n in needed(path):
-        if n in SYSTEM or n in kept:
-            continue
-        if n in STUBS:
-            stubbed_by.setdefault(n, set()).add(path)
-            continue
-        if os.path.exists(os.path.join(lib, n)):  # staged already (the package's own)
-            continue
-        kept[n] = find(n)
-        todo.append(kept[n])
-for n, src in kept.items():
-    shutil.copyfile(os.path.realpath(src), os.path.join(lib, n))
-
-def dynsyms(path, defined):
-    out = subprocess.run(['readelf', '--dyn-syms', '-W', path], capture_output=True, text=True, check=True).stdout
-    syms = {}
-    for line in out.splitlines():
-        f = line.split()
-        if len(f) < 8 or not f[0].endswith(':') or f[0] == 'Num:':
-            continue
-        size, typ, bind, ndx, name = f[2], f[3], f[4], f[6], f[7]
-        if '@' in name or bind == 'LOCAL':
-            continue
-        if defined == (ndx != 'UND'):
-            syms[name] = (typ, int(size, 0) if size.startswith('0x') else int(size))
-    return syms
-
-defined_elsewhere = set()
-for p in [os.path.join(lib, f) for f in os.listdir(lib)] + roots:
-    defined_elsewhere.update(dynsyms(p, True))
-for stub, users in sorted(stubbed_by.items()):
-    real = dynsyms(find(stub), True)
-    wanted = set()
-    for u in users:
-        wanted.update(s for s in dynsyms(u, False) if s in real and s not in defined_elsewhere)
-    asm = ['.text']
-    for s in sorted(wanted):
-        typ, size = real[s]
-        if typ in ('FUNC', 'IFUNC', 'NOTYPE'):
-            asm += ['.globl "%s"' % s, '.type "%s", @function' % s, '"%s": ud2' % s]
-    asm.append('.bss')
-    for s in sorted(wanted):
-        typ, size = real[s]
-        if typ == 'OBJECT':
-            asm += ['.globl "%s"' % s, '.type "%s", @object' % s, '.size "%s", %d' % (s, size), '.balign 16',
-                    '"%s": .zero %d' % (s, max(size, 1))]
-        elif typ not in ('FUNC', 'IFUNC', 'NOTYPE'):
-            sys.exit('cannot stub %s %s of %s' % (typ, s, stub))
-    src = os.path.join(tree, '..', stub + '.s')
-    open(src, 'w').write('\n'.join(asm) + '\n')
-    subprocess.run(['gcc', '-shared', '-nostdlib', '-Wl,-soname,' + stub, '-o', os.path.join(lib, stub), src],
-                   check=True)
-    print('stub %s: %d symbols for %s' % (stub, len(wanted), ', '.join(sorted(os.path.basename(u) for u in users))))
-total = sum(os.path.getsize(os.path.join(lib, f)) for f in os.listdir(lib))
-print('%d libraries, %.1f MB' % (len(os.listdir(lib)), total / 1e6))
-EOF
+python3 "$here/scripts/library_closure.py" "$tree" "$build/devel/lib" "$tree/bin/nodelet_replay" \
+  --stub libgdal.so.32 --stub libgdcmMSFF.so.3.0 --stub libgdcmDSED.so.3.0 --stub libOpenEXR-3_1.so.30
 
 echo "== ROS package files (ROS_PACKAGE_PATH=share)"
 mkdir -p "$tree/share"/{amhmvs_mapping,nodelet,image_transport,rosbag_storage}
@@ -197,7 +116,6 @@ EOF
 chmod +x "$tree/check.sh"
 
 echo "== archive"
-rm -f "$work"/*.s
 du -sh "$tree"
 tar -C "$work" -cf - rosgpu | xz -T2 -6 > "$out/rosgpu.tar.xz"
 ls -l "$out/rosgpu.tar.xz"
