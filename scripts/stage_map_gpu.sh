@@ -47,7 +47,11 @@ out=${OUT:-$T/out}  # the table and the logs; the maps stay in $maps
 maps=$(mktemp -d /tmp/mapgpu_maps.XXXXXX)
 mkdir -p "$out"
 export LD_LIBRARY_PATH=$T/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
-device=$(nvidia-smi --query-gpu=name,driver_version --format=csv,noheader 2>&1 | head -1)
+if [ "${BACKEND:-cuda}" = cpu ]; then
+  device="CPU, $(nproc) cores"
+else
+  device=$(nvidia-smi --query-gpu=name,driver_version --format=csv,noheader 2>&1 | head -1)
+fi
 settings="--backend ${BACKEND:-cuda} --num_sources 4 --pose_refinement --frame_period 0.5 --rolling_shutter_s 0.025
   --pose_refinement_correct_map_poses=1 --fuse_neighbours_again"
 {
