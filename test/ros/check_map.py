@@ -36,6 +36,7 @@ from sensor_msgs.msg import CameraInfo, Image, PointCloud2
 import sensor_msgs.point_cloud2 as pc2
 
 from node_watch import NodeWatch
+from sparse_agreement import quaternion_matrix
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'scripts'))
 from dense_folder_to_bag import read_cam, read_pfm  # noqa: E402  (the writer's readers of the truth)
 
@@ -237,11 +238,7 @@ def truth_image_points(truth, info, pose):
     fx, fy = info.K[0] * scale, info.K[4] * scale
     cx, cy = (info.K[2] + 0.5) * scale - 0.5, (info.K[5] + 0.5) * scale - 0.5
     camera_points = np.stack([(u - cx) / fx * z, (v - cy) / fy * z, z], axis=1)
-    q = pose.orientation
-    x, y, zq, w = q.x, q.y, q.z, q.w
-    rotation = np.array([[1 - 2 * (y * y + zq * zq), 2 * (x * y - zq * w), 2 * (x * zq + y * w)],
-                         [2 * (x * y + zq * w), 1 - 2 * (x * x + zq * zq), 2 * (y * zq - x * w)],
-                         [2 * (x * zq - y * w), 2 * (y * zq + x * w), 1 - 2 * (x * x + y * y)]])
+    rotation = np.array(quaternion_matrix(pose.orientation))  # camera-to-world
     position = np.array([pose.position.x, pose.position.y, pose.position.z])
     return camera_points @ rotation.T + position
 
