@@ -18,12 +18,12 @@ work=$(mktemp -d /tmp/stage_map_gpu.XXXXXX)
 trap 'rm -rf "$work"' EXIT
 tree=$work/mapgpu
 mkdir -p "$tree"/{bin,lib,data}
-programs="amhmvs_map amhmvs_cloud_metrics"
+programs="amhmvs_map amhmvs_cloud_metrics"  # staged; amhmvs_synthetic runs here only
 
 for p in $programs amhmvs_synthetic; do
   [ -x "$devel/lib/amhmvs_mapping/$p" ] || { echo "missing $devel/lib/amhmvs_mapping/$p: build first" >&2; exit 1; }
-  [ "$p" = amhmvs_synthetic ] || cp "$devel/lib/amhmvs_mapping/$p" "$tree/bin/"
 done
+for p in $programs; do cp "$devel/lib/amhmvs_mapping/$p" "$tree/bin/"; done
 cp "$devel/lib/libamhmvs_core.so" "$tree/lib/"
 python3 "$here/scripts/library_closure.py" "$tree" "$devel/lib" "$tree"/bin/* \
   --stub libgdal.so.32 --stub libgdcmMSFF.so.3.0 --stub libgdcmDSED.so.3.0 --returning GDALAllRegister
