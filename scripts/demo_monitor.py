@@ -45,6 +45,7 @@ from amhmvs_mapping.srv import SaveMap
 # folder: demo_outputs is found next to this file (installed: the same folder).
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from demo_outputs import colour_depth_pair, read_ply
+from dense_folder_to_bag import quaternion_matrix
 
 THRESHOLDS = (0.01, 0.02, 0.05)      # relative depth error, as amhmvs_depth --ground_truth
 SURFACE_TOLERANCE = 0.02             # metres, map points "on the true surface"
@@ -66,12 +67,8 @@ def seconds(key):
 
 
 def rigid_matrix(transform):
-    t, q = transform.translation, transform.rotation
-    x, y, z, w = q.x, q.y, q.z, q.w
-    rotation = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                         [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-    return rotation, np.array([t.x, t.y, t.z])
+    t = transform.translation
+    return np.array(quaternion_matrix(transform.rotation)), np.array([t.x, t.y, t.z])
 
 
 def surface_errors(xyz, truth, info, rotation, translation):

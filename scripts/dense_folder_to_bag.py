@@ -75,6 +75,15 @@ def quaternion_xyzw(rotation):
     return q / np.linalg.norm(q)
 
 
+def quaternion_matrix(q):
+    """Rotation matrix (nested lists) of a unit quaternion with fields x, y, z, w
+    (geometry_msgs Quaternion): the inverse of quaternion_xyzw."""
+    x, y, z, w = q.x, q.y, q.z, q.w
+    return [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+
+
 def image_msg(array, encoding, header):
     msg = Image(header=header, height=array.shape[0], width=array.shape[1], encoding=encoding,
                 is_bigendian=0)

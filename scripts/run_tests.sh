@@ -176,6 +176,7 @@ if [ -f "$bag" ]; then
   for run in "fountain_manager_pose replay_fountain.test standalone:=false input_mode:=pose" \
              "fountain_standalone_tf replay_fountain.test standalone:=true input_mode:=tf" \
              "fountain_manager_keyframe replay_fountain.test standalone:=false input_mode:=keyframe" \
+             "fountain_slow_replay replay_fountain.test rate:=0.1" \
              "temple_map_odometry_region replay_map.test scene:=temple input_mode:=odometry region:=true" \
              "icl_plumbing replay_map.test scene:=icl" \
              "keyframe_services keyframe_services.test" \
@@ -201,7 +202,7 @@ if [ -f "$bag" ]; then
 else
   echo "rostest: skipped, no bag at $bag"
   ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped
-             skipped skipped skipped skipped)
+             skipped skipped skipped skipped skipped)
 fi
 
 # The package the way a ROS user builds it: in a fresh catkin workspace

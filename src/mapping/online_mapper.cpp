@@ -494,7 +494,10 @@ void OnlineMapper::fuseAgainNow(int64_t id, std::vector<int64_t> views, Clock::t
 
 void OnlineMapper::fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResult* result) {
   const size_t counted = std::min(consistencyViewCap(), static_cast<size_t>(defaultConfidenceCalibration().max_views));
-  if (options_.confidence.enabled && options_.confidence.again_with_more_views && views.size() < counted) {
+  // With the confidence off too: more views confirm more of the depth map,
+  // so the map's coverage does not depend on whether the later keyframes
+  // were estimated before this one was fused (a machine's speed).
+  if (options_.confidence.again_with_more_views && views.size() < counted) {
     fused_with_fewer_views_[id] = Underfused{views.size(), kUnderfusedRechecks};
   } else {
     fused_with_fewer_views_.erase(id);

@@ -36,9 +36,8 @@ from sensor_msgs.msg import CameraInfo, Image, PointCloud2
 import sensor_msgs.point_cloud2 as pc2
 
 from node_watch import NodeWatch
-from sparse_agreement import quaternion_matrix
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'scripts'))
-from dense_folder_to_bag import read_cam, read_pfm  # noqa: E402  (the writer's readers of the truth)
+from dense_folder_to_bag import quaternion_matrix, read_cam, read_pfm  # noqa: E402  (the writer's own conversions)
 
 
 class MapReplay(unittest.TestCase):

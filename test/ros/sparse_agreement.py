@@ -4,6 +4,11 @@ src/eval/depth_metrics.cpp: for every observation of a point by a view, the
 depth at the point's nearest pixel against the point's z-depth; the fraction
 within 1 / 2 / 5 % relative error (a missing depth counts as a miss)."""
 import math
+import os
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'scripts'))
+from dense_folder_to_bag import quaternion_matrix  # noqa: E402  (the bag writer's own conversion)
 
 THRESHOLDS = (0.01, 0.02, 0.05)
 
@@ -20,13 +25,6 @@ def read_sparse_points(path):
             points.append(((float(values[0]), float(values[1]), float(values[2])),
                            set(int(v) for v in values[4:4 + count])))
     return points
-
-
-def quaternion_matrix(q):
-    x, y, z, w = q.x, q.y, q.z, q.w
-    return [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
 
 
 class Camera:

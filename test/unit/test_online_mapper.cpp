@@ -149,6 +149,38 @@ TEST(OnlineMapper, FirstKeyframesArePublishedAgainWhenMoreViewsSeeThem) {
   }
 }
 
+// With the confidence off the first keyframes are fused again all the same:
+// more views confirm more of a depth map (here the wall's pixels that only
+// the later keyframes see), so the map does not depend on whether the later
+// keyframes were estimated before a keyframe was first fused.
+TEST(OnlineMapper, FirstKeyframesAreFusedAgainWithTheConfidenceOff) {
+  OnlineMapperOptions options = wallOptions();
+  options.confidence.enabled = false;
+  ASSERT_TRUE(options.confidence.again_with_more_views);
+  OnlineMapper mapper(options, wallDepth);
+  std::map<int64_t, std::vector<size_t>> points;  // keyframe -> fused points of each fusion
+  const auto note = [&](const KeyframeResult& result) {
+    for (const FusedKeyframe& fused : result.fused) {
+      EXPECT_TRUE(fused.published.empty()) << fused.id;
+      points[fused.id].push_back(fused.points->size());
+    }
+  };
+  for (int64_t id = 0; id < 5; ++id) note(mapper.process(keyframeAt(id, 0.5 * id)));
+  KeyframeResult later;
+  while (mapper.fuseAgain(&later)) {
+    EXPECT_FALSE(later.has_depth);
+    note(later);
+  }
+  // Keyframe 1's first views (0 and 2) already see what it shows of the
+  // wall twice; 2 and 3, first fused with views on one side, gain the pixels
+  // that only views on the other side see; 4, the last, has earlier ones only.
+  EXPECT_EQ(points[1], (std::vector<size_t>{624, 624}));
+  EXPECT_EQ(points[2], (std::vector<size_t>{624, 696}));
+  EXPECT_EQ(points[3], (std::vector<size_t>{624, 696}));
+  EXPECT_EQ(points[4], std::vector<size_t>{624});
+  for (int64_t id = 1; id <= 4; ++id) EXPECT_TRUE(mapper.map().contains(id)) << id;
+}
+
 // With the confidence on (the default) a fused keyframe carries its depth map
 // as published: every exact wall pixel agrees with every consistency view
 // that sees it, so its confidence is the table's (seen, seen) value, and the

@@ -286,7 +286,8 @@ class OnlineMapper {
   // not refined again.
   bool refine(KeyframeResult* result);
 
-  // With confidence.again_with_more_views: fuses and publishes again one
+  // With confidence.again_with_more_views (with the confidence on or off;
+  // off: nothing is published, the points are replaced): fuses and publishes again one
   // keyframe that was fused with fewer consistency views than the confidence
   // counts (calibration.max_views; the first keyframes of a run, fused with
   // two views, where no pixel reaches 0.97) and has more now, oldest first
