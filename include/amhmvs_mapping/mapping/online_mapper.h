@@ -286,13 +286,14 @@ class OnlineMapper {
   // not refined again.
   bool refine(KeyframeResult* result);
 
-  // With confidence.again_with_more_views (with the confidence on or off;
-  // off: nothing is published, the points are replaced): fuses and publishes again one
-  // keyframe that was fused with fewer consistency views than the confidence
-  // counts (calibration.max_views; the first keyframes of a run, fused with
-  // two views, where no pixel reaches 0.97) and has more now, oldest first
-  // (result->fused_again; no new depth map). Low priority work: the
-  // pipeline runs it only when no keyframe waits. False when none qualifies.
+  // With confidence.again_with_more_views (the confidence on or off; off:
+  // nothing is published, the points are replaced): fuses and publishes
+  // again one keyframe that was fused with fewer consistency views than the
+  // confidence counts (calibration.max_views; the first keyframes of a run,
+  // fused with two views, where no pixel reaches 0.97) and has more now,
+  // oldest first (result->fused_again; no new depth map). Low priority
+  // work: the pipeline runs it only when no keyframe waits. False when none
+  // qualifies.
   bool fuseAgain(KeyframeResult* result);
 
   // Loop closure: new camera-to-world pose of a stored keyframe; moves its map
