@@ -5,12 +5,11 @@ set(AMHMVS_SANITIZERS "" CACHE STRING "Sanitizers for every target, e.g. address
 if(AMHMVS_SANITIZERS)
   # A report needs file and line only: clang's line tables compile about a
   # quarter quicker than full -g (measured on star_bundle_adjustment.cpp).
+  # These options follow the build type's flags, so this -g level wins over
+  # RelWithDebInfo's -g.
   set(amhmvs_debug_info -g)
   if(CMAKE_CXX_COMPILER_ID MATCHES Clang)
     set(amhmvs_debug_info -gline-tables-only)
-    foreach(flags CMAKE_C_FLAGS_RELWITHDEBINFO CMAKE_CXX_FLAGS_RELWITHDEBINFO)
-      string(REGEX REPLACE "(^| )-g( |$)" "\\1-gline-tables-only\\2" ${flags} "${${flags}}")
-    endforeach()
   endif()
   add_compile_options(-fsanitize=${AMHMVS_SANITIZERS} -fno-sanitize-recover=all
                       -fno-omit-frame-pointer ${amhmvs_debug_info})

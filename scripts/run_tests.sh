@@ -117,8 +117,9 @@ echo "sanitizer build: $(( $(date +%s) - core_start )) s"
 run_logged "sanitizer core suite" "$core_results/asan_unit_tests.log" \
   env ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 "$asan_build/amhmvs_unit_tests" \
   --gtest_filter="-$sanitizer_skips" --gtest_output=xml:"$core_results/asan_unit_tests.xml"
-run_logged "fuzzers (${AMHMVS_FUZZ_SECONDS:=15} s each)" "$core_results/fuzzers.log" \
-  env AMHMVS_FUZZ_SECONDS="$AMHMVS_FUZZ_SECONDS" AMHMVS_FUZZ_BUILD_DIR="$asan_build" \
+fuzz_seconds=${AMHMVS_FUZZ_SECONDS:-15}
+run_logged "fuzzers ($fuzz_seconds s each)" "$core_results/fuzzers.log" \
+  env AMHMVS_FUZZ_SECONDS="$fuzz_seconds" AMHMVS_FUZZ_BUILD_DIR="$asan_build" \
   AMHMVS_FUZZ_RESULTS="$core_results/fuzzers.xml" "$here/scripts/run_fuzzers.sh"
 grep -E "executions|FINDING" "$core_results/fuzzers.log" || true
 

@@ -29,7 +29,6 @@ if [ "${1:-}" = --from-build ]; then
 fi
 results=${1:-$workspace/test_results}
 mkdir -p "$workspace/src" "$results"
-[ -z "$from_build" ] && ln -s "$here" "$workspace/src/amhmvs_mapping"
 # A fresh environment: nothing from the repository's own devel space.
 unset ROS_PACKAGE_PATH CMAKE_PREFIX_PATH LD_LIBRARY_PATH PYTHONPATH PKG_CONFIG_PATH ROSLISP_PACKAGE_DIRECTORIES
 export ROS_HOME=$workspace/ros_home
@@ -42,14 +41,12 @@ step() {  # step NAME: prints the time of the previous step
   step_start=$now
 }
 
+args=()
 if [ -n "$from_build" ]; then
   step "catkin_make install of the empty workspace $workspace, cmake --install $from_build into it"
-  catkin_make -C "$workspace" install > "$workspace/catkin_make.log" 2>&1 ||
-    { tail -40 "$workspace/catkin_make.log"; echo "catkin_make install failed"; exit 1; }
-  cmake --install "$from_build" --prefix "$workspace/install" > "$workspace/install.log" 2>&1 ||
-    { tail -40 "$workspace/install.log"; echo "cmake --install $from_build failed"; exit 1; }
 else
   step "catkin_make install in $workspace"
+  ln -s "$here" "$workspace/src/amhmvs_mapping"
   args=(-DCMAKE_BUILD_TYPE=Release -DAMHMVS_WITH_CUDA=OFF -DCATKIN_ENABLE_TESTING=OFF -DAMHMVS_BUILD_TOOLS=OFF)
   if command -v ccache >/dev/null; then
     # Paths relative to the workspace: a later run in another temporary
@@ -57,8 +54,12 @@ else
     export CCACHE_BASEDIR=$workspace
     args+=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
   fi
-  catkin_make -C "$workspace" install "${args[@]}" -j "$(nproc)" > "$workspace/catkin_make.log" 2>&1 ||
-    { tail -40 "$workspace/catkin_make.log"; echo "catkin_make install failed"; exit 1; }
+fi
+catkin_make -C "$workspace" install "${args[@]}" -j "$(nproc)" > "$workspace/catkin_make.log" 2>&1 ||
+  { tail -40 "$workspace/catkin_make.log"; echo "catkin_make install failed"; exit 1; }
+if [ -n "$from_build" ]; then
+  cmake --install "$from_build" --prefix "$workspace/install" > "$workspace/install.log" 2>&1 ||
+    { tail -40 "$workspace/install.log"; echo "cmake --install $from_build failed"; exit 1; }
 fi
 
 step "rosrun amhmvs_mapping amhmvs_depth --help (install space)"
