@@ -1,3 +1,7 @@
+"""Session 19: share of depth pixels within 2 cm of the global-shutter truth, per
+keyframe and by sixths of the image rows (top to bottom), for amhmvs_map runs.
+usage: /usr/bin/python3 session19_rs_row_bands.py GLOBAL_SHUTTER_DIR RUN_DIR...
+"""
 import sys, os, numpy as np
 sys.path.insert(0, '/work/main/scripts')
 from dense_folder_to_bag import read_pfm
