@@ -22,30 +22,20 @@ DEBUG is the stderr of an experiment build of amhmvs_map with
 AMHMVS_PRINT_STAR_SCALES=1 (docs/results/session20_scale_experiments.patch):
 lines 'STAR id scale', 'EDGE ref src refined_length graph_length' and
 'POSE id r00 .. r23' (camera-to-world), one block per graph solve.
-Needs numpy only (/usr/bin/python3 here).
+Reads cams and PFMs with scripts/dense_folder_to_bag.py's readers, so it
+needs numpy and the ROS Python modules that script imports (/usr/bin/python3
+here).
 """
 import collections
+import os
 import sys
 
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'scripts'))
+from dense_folder_to_bag import read_cam, read_pfm  # noqa: E402  (MVSNet cam.txt and PFM readers)
+
 KEYFRAMES = 8
-
-
-def read_pfm(path):
-    with open(path, 'rb') as f:
-        f.readline()
-        width, height = map(int, f.readline().split())
-        scale = float(f.readline())
-        data = np.fromfile(f, '<f4' if scale < 0 else '>f4').reshape(height, width)
-    return np.flipud(data)
-
-
-def read_cam(path):
-    words = open(path).read().split()
-    world_to_camera = np.array(list(map(float, words[1:17]))).reshape(4, 4)
-    intrinsics = np.array(list(map(float, words[18:27]))).reshape(3, 3)
-    return world_to_camera, intrinsics
 
 
 def centre(world_to_camera):
