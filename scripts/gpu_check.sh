@@ -57,26 +57,38 @@ if [[ " $steps " == *" profile "* ]]; then
   echo "== ncu: updateKernel, fountain x0.25 =="
   ncu --clock-control none --kernel-name regex:updateKernel --launch-skip 6 --launch-count 1 \
     --section SpeedOfLight --section Occupancy --section LaunchStats --section MemoryWorkloadAnalysis \
-    --section ComputeWorkloadAnalysis --section WarpStateStats \
+    --section ComputeWorkloadAnalysis --section WarpStateStats --section SchedulerStats \
+    --section InstructionStats --section SourceCounters \
     "$bin/amhmvs_benchmark" "$data" --only fountain_x0.25 --runs 1 > "$out/ncu.txt" 2>&1
+  cuobjdump -sass $(find /tmp/amhmvs_build -name 'cuda_backend.cu.o' | head -1) > "$out/sass.txt" 2>&1
   grep -vE "^==PROF==|^ +-+ " "$out/ncu.txt" | grep -E "Throughput|Occupancy|Registers|Stack|Warp Cycles|Stall|L1|L2|DRAM|Duration|Pipe|Texture|Eligible|Issued|Block Limit|Local" | head -60
 fi
 if [[ " $steps " == *" variants "* ]]; then
-  # Register caps of the update kernel (minimum resident blocks per SM).
-  echo "== variants: update kernel register cap =="
-  for blocks in ${AMHMVS_VARIANT_BLOCKS:-1 4 5 6}; do
-    vb=/tmp/amhmvs_build_b$blocks
-    cmake -S "$here" -B $vb -DAMHMVS_CORE_ONLY=ON -DCMAKE_BUILD_TYPE=Release -DAMHMVS_CUDA_ARCHITECTURES="$arch" \
-      -DCMAKE_CUDA_FLAGS="-Xptxas -v -DAMHMVS_UPDATE_MIN_BLOCKS=$blocks" > /dev/null 2>&1
-    cmake --build $vb -j 16 --target amhmvs_benchmark > "$out/build_b$blocks.log" 2>&1 || { echo "build failed"; continue; }
-    echo "-- min blocks $blocks: $(grep -A2 'Function properties for.*updateKernel.*FixedWindow' "$out/build_b$blocks.log" | grep -oE '[0-9]+ bytes spill stores|Used [0-9]+ registers' | tr '\n' ' ')"
-    $vb/amhmvs_benchmark "$data" --only fountain_x0.25 --runs 5 --out /dev/null | grep fountain
+  # Compile-time variants of the update kernel, built in parallel, then timed
+  # one after the other. AMHMVS_VARIANTS: "name=nvcc-flags;name=flags;..."
+  # (default: rows of the matching window per loop trip, and a register cap).
+  variants=${AMHMVS_VARIANTS:-"rows1=-DAMHMVS_WINDOW_ROW_UNROLL=1;rows2=-DAMHMVS_WINDOW_ROW_UNROLL=2;rows3=-DAMHMVS_WINDOW_ROW_UNROLL=3;rows6=-DAMHMVS_WINDOW_ROW_UNROLL=6;rows2_b5=-DAMHMVS_UPDATE_MIN_BLOCKS=5"}
+  echo "== variants: update kernel =="
+  IFS=';' read -ra specs <<< "$variants"
+  for spec in "${specs[@]}"; do
+    name=${spec%%=*}; flags=${spec#*=}; vb=/tmp/amhmvs_build_v_$name
+    ( cmake -S "$here" -B $vb -DAMHMVS_CORE_ONLY=ON -DCMAKE_BUILD_TYPE=Release -DAMHMVS_CUDA_ARCHITECTURES="$arch" \
+        -DCMAKE_CUDA_FLAGS="-Xptxas -v $flags" > /dev/null 2>&1 &&
+      cmake --build $vb -j 4 --target amhmvs_benchmark > "$out/build_v_$name.log" 2>&1 || echo "build of $name failed" ) &
+  done
+  wait
+  for spec in "${specs[@]}"; do
+    name=${spec%%=*}; flags=${spec#*=}; vb=/tmp/amhmvs_build_v_$name
+    echo "-- $name ($flags): $(grep -A2 'Function properties for.*updateKernel.*FixedWindow' "$out/build_v_$name.log" | grep -oE '[0-9]+ bytes spill stores|Used [0-9]+ registers' | tr '\n' ' ')"
+    [ -x $vb/amhmvs_benchmark ] && $vb/amhmvs_benchmark "$data" --only fountain_x0.25 --runs 5 --out /dev/null | grep fountain
   done
 fi
 if [[ " $steps " == *" baseline "* ]]; then
   # The earlier code, built alongside (amhmvs_depth only).
   echo "== baseline build =="
-  rm -rf /tmp/amhmvs_base && mkdir -p /tmp/amhmvs_base
+  # Both folders fresh: the tar's files keep their commit times, which can be
+  # older than a warm machine's objects from another baseline.
+  rm -rf /tmp/amhmvs_base /tmp/amhmvs_base_build && mkdir -p /tmp/amhmvs_base
   tar -xzf "${AMHMVS_BASELINE_TAR:-$here/.baseline.tar.gz}" -C /tmp/amhmvs_base || { echo "FAIL  no baseline tar"; status=1; }
   cmake -S /tmp/amhmvs_base -B /tmp/amhmvs_base_build -DAMHMVS_CORE_ONLY=ON -DCMAKE_BUILD_TYPE=Release \
     -DAMHMVS_CUDA_ARCHITECTURES="$arch" > "$out/cmake_base.log" 2>&1 && \
@@ -94,7 +106,7 @@ if [[ " $steps " == *" baseline "* ]]; then
     || { echo "FAIL  GPU outputs differ from the baseline"; status=1; }
 fi
 if [[ " $steps " == *" depthwall "* ]]; then
-  echo "== amhmvs_depth wall time per depth map (all outputs written; median of 3 runs) =="
+  echo "== amhmvs_depth wall time per depth map (all outputs written; median of ${AMHMVS_WALL_RUNS:-3} runs) =="
   if [ ! -d /tmp/synthetic_640 ]; then  # rendered as PNG, read here as PPM (no PNG decoder in this build)
     "$bin/amhmvs_synthetic" /tmp/synthetic_640_png --scene room --views 11 --width 640 --height 480 > /dev/null && \
     python3 -c "import sys; sys.path.insert(0, '$here/scripts'); import prepare_gpu_data as p; \
@@ -103,7 +115,7 @@ p.convert_dense_folder('/tmp/synthetic_640_png', '/tmp/synthetic_640')"
   walltime() {  # program folder extra-args... -> median ms per map
     local program=$1 folder=$2; shift 2
     local times=()
-    for run in 1 2 3; do
+    for run in $(seq ${AMHMVS_WALL_RUNS:-3}); do
       rm -rf /tmp/wall_out
       local t0=$(date +%s%N)
       "$program" "$folder" /tmp/wall_out --backend cuda --quiet "$@" || return 1
@@ -111,7 +123,7 @@ p.convert_dense_folder('/tmp/synthetic_640_png', '/tmp/synthetic_640')"
       local maps=$(ls /tmp/wall_out | wc -l)
       times+=($(( (t1 - t0) / 1000 / maps )))
     done
-    printf '%s\n' "${times[@]}" | sort -n | sed -n 2p | awk '{printf "%.1f", $1 / 1000}'
+    printf '%s\n' "${times[@]}" | sort -n | sed -n "$(( (${#times[@]} + 1) / 2 ))p" | awk '{printf "%.1f", $1 / 1000}'
   }
   echo "| input | maps | baseline ms/map | this code ms/map | target (2x ACMH) |"
   echo "|---|---|---|---|---|"

@@ -10,6 +10,7 @@
 #include "tool_main.h"
 
 int main(int argc, char** argv) {
+  amhmvs::preferOneCudaWorkQueue();  // one estimate at a time: one hardware queue is enough
   return amhmvs::runToolMain(
       "amhmvs_depth", amhmvs::depthJobUsage(), argc, argv, 2, false,
       [](const std::vector<std::string>& args) {

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <future>
@@ -161,6 +162,13 @@ void attachGeometricInputs(const std::map<int, DepthMap>& photometric, int refer
   const DepthMap& own = photometric.at(reference_id);
   problem->prior_depth = own.depth;
   problem->prior_normal = own.normal;
+}
+
+void preferOneCudaWorkQueue() {
+  // The default, 8 queues per context, cost on an H200 61 ms more at context
+  // creation and 111 ms more from exec to exit of a minimal CUDA program
+  // (docs/performance.md); they only help streams that run side by side.
+  setenv("CUDA_DEVICE_MAX_CONNECTIONS", "1", /*overwrite=*/0);
 }
 
 int runDepthJob(const std::string& input_dir, const std::string& output_dir,
@@ -391,7 +399,9 @@ std::string depthJobUsage() {
          "                          bisection_only_iterations: local refinement)\n"
          "  --quiet                 no progress on stderr\n\n"
          "Method options (defaults are the paper's):\n"
-      << describe(PatchMatchOptions());
+      << describe(PatchMatchOptions())
+      << "\nEnvironment: CUDA_DEVICE_MAX_CONNECTIONS is 1 unless you set it (one estimate at a\n"
+         "time needs one CUDA work queue; the GPU context then starts and ends faster).\n";
   return out.str();
 }
 

@@ -51,6 +51,12 @@ void attachGeometricInputs(const std::map<int, DepthMap>& photometric, int refer
 // Masks pixels whose cost exceeds max_cost (depth := NaN).
 void maskByCost(DepthMap* map, float max_cost);
 
+// Asks the CUDA driver for one hardware work queue (CUDA_DEVICE_MAX_CONNECTIONS=1)
+// unless the environment already names a number. A program that drives one
+// stream at a time, as amhmvs_depth does, loses nothing by it and its context
+// starts and ends faster. Call before the first CUDA call.
+void preferOneCudaWorkQueue();
+
 // Runs the job; `on_result` (if set) sees every depth map. Output files are
 // written by a background thread (off the estimator's path); its first error
 // is thrown before this returns. Returns the number of depth maps written.

@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -15,6 +16,7 @@
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
+#include "depth_job.h"
 #include "test_helpers.h"
 
 namespace amhmvs {
@@ -61,6 +63,26 @@ class DepthCli : public ::testing::Test {
   test::TempDir dir_;
   std::string source_, input_, output_;
 };
+
+// amhmvs_depth asks for one CUDA work queue before its first CUDA call
+// (faster context start and end), but a number the user set wins.
+TEST(DepthJobEnvironment, OneCudaWorkQueueUnlessTheUserChoseANumber) {
+  const char* name = "CUDA_DEVICE_MAX_CONNECTIONS";
+  const char* before = std::getenv(name);
+  const std::string saved = before ? before : "";
+  unsetenv(name);
+  preferOneCudaWorkQueue();
+  ASSERT_NE(std::getenv(name), nullptr);
+  EXPECT_STREQ(std::getenv(name), "1");
+  setenv(name, "8", 1);
+  preferOneCudaWorkQueue();
+  EXPECT_STREQ(std::getenv(name), "8");
+  if (before) {
+    setenv(name, saved.c_str(), 1);
+  } else {
+    unsetenv(name);
+  }
+}
 
 TEST_F(DepthCli, WritesEveryOutputAtTheProcessedResolution) {
   const CommandResult r = runDepth(input_ + " " + output_ +

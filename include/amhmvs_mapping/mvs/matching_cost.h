@@ -20,6 +20,19 @@
 namespace amhmvs {
 namespace mvs {
 
+// Rows of the window that one trip of windowCost's row loop covers on the
+// GPU. The whole window unrolled (6 rows of 6 samples) would need 185
+// registers; the update kernel's launch bounds cap it at 128, which left few
+// texture fetches in flight. Two rows per trip need 124 and run fountain
+// x0.25 in 15.7 instead of 19.0 ms (H100; H200: one row 15.8, two 15.5,
+// three 16.3; scripts/gpu_check.sh step "variants" sets
+// -DAMHMVS_WINDOW_ROW_UNROLL=N). Same arithmetic in the same order: same
+// results. The CPU build leaves the loop to the compiler.
+#ifndef AMHMVS_WINDOW_ROW_UNROLL
+#define AMHMVS_WINDOW_ROW_UNROLL 2
+#endif
+constexpr int kWindowRowUnroll = AMHMVS_WINDOW_ROW_UNROLL;
+
 constexpr float kMaxCost = 2.0f;
 // Below this weighted variance (intensities 0..255) a window has no texture
 // and the cost is undefined: kMaxCost.
@@ -212,7 +225,9 @@ AMHMVS_HD F windowCost(const SourceView& source, const CostParams& p,
   // float moments accurate for weakly textured windows.
   const F shift = source.sample(cu, cv);
   F sum_s{}, sum_ss{}, sum_rs{};
-  AMHMVS_UNROLL
+#if defined(__CUDACC__)
+#pragma unroll kWindowRowUnroll
+#endif
   for (int iy = 0; iy < shape.perAxis(); ++iy) {
     const int dy = -shape.radius() + iy * shape.step();
     // Homogeneous source point of the row start, then stepped along x.
