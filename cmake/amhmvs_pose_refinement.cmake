@@ -31,11 +31,13 @@ if(AMHMVS_HAVE_POSE_REFINEMENT)
     src/pose_refinement/feature_matching.cpp
     src/pose_refinement/star_bundle_adjustment.cpp
     src/pose_refinement/pose_refiner.cpp
-    src/pose_refinement/keyframe_pose_graph.cpp)
+    src/pose_refinement/keyframe_pose_graph.cpp
+    src/pose_refinement/keyframe_bundle_adjustment.cpp)
   target_include_directories(amhmvs_core SYSTEM PRIVATE ${OpenCV_INCLUDE_DIRS})
   target_link_libraries(amhmvs_core PRIVATE ${OpenCV_LIBS} Ceres::ceres)
   target_compile_definitions(amhmvs_core PUBLIC AMHMVS_WITH_POSE_REFINEMENT)
 else()
   target_sources(amhmvs_core PRIVATE src/pose_refinement/pose_refiner_unavailable.cpp
-    src/pose_refinement/keyframe_pose_graph_unavailable.cpp)
+    src/pose_refinement/keyframe_pose_graph_unavailable.cpp
+    src/pose_refinement/keyframe_bundle_adjustment_unavailable.cpp)
 endif()

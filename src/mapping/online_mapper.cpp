@@ -252,6 +252,11 @@ bool OnlineMapper::refine(KeyframeResult* result) {
   if (options_.refinement.max_refinements == 0) return fuseDeferred(result);
   const Clock::time_point start = Clock::now();
   for (auto& [id, record] : estimates_) {
+    if (stereoPosesMoved(id, record)) {
+      ++record.pose_reestimates;
+      estimateStored(id, selectSources(store_, id, options_.sources), /*late=*/false, start, result);
+      return true;
+    }
     if (record.refinements >= options_.refinement.max_refinements) continue;
     if (record.selection_checked_at == store_.revision()) continue;  // what selection reads has not changed
     SourceSelection selection = selectSources(store_, id, options_.sources);
@@ -344,7 +349,7 @@ void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult
     start = Clock::now();
     result->pose_refinement = pose_refiner_->refine(&problem);
     recordRefinedPoses(id, problem, result->pose_refinement);
-    correctMapPoses();
+    if (!options_.pose_refinement.keyframe_bundle_adjustment || !adjustKeyframePoses(id, &problem)) correctMapPoses();
     result->times.pose_refinement_ms = millisecondsSince(start);
   }
   start = Clock::now();
@@ -361,6 +366,10 @@ void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult
   EstimateRecord& record = estimates_[id];
   record.sources = sources;  // also when rejected: the same selection is not tried again
   record.score = selectionScore(result->selection);
+  record.stereo_reference = problem.reference_camera;
+  record.stereo_sources.clear();
+  for (size_t s = 0; s < sources.size() && s < problem.source_cameras.size(); ++s)
+    record.stereo_sources[sources[s]] = problem.source_cameras[s];
   if (result->refinement_rejected) {
     result->waiting_for_fusion = waiting_.size();
     return;
@@ -655,6 +664,67 @@ void OnlineMapper::correctMapPoses() {
   settings.rotation_sigma_rad = options.graph_rotation_sigma_deg * kDegree;
   settings.direction_sigma_rad = options.graph_direction_sigma_deg * kDegree;
   map_poses_ = solveKeyframePoseGraph(tracker_poses, edges, settings);
+  placeMapPoses();
+}
+
+namespace {
+
+// `camera` (intrinsics kept) at a camera-to-world pose.
+PinholeCamera cameraAt(PinholeCamera camera, const Eigen::Isometry3d& camera_to_world) {
+  camera.R = camera_to_world.linear().transpose();
+  camera.t = -camera.R * camera_to_world.translation();
+  return camera;
+}
+
+}  // namespace
+
+bool OnlineMapper::adjustKeyframePoses(int64_t id, DepthProblem* problem) {
+  std::map<int64_t, PinholeCamera> cameras;
+  for (int64_t stored : store_.ids()) cameras[stored] = store_.keyframe(stored).camera;
+  const KeyframeBundleAdjustmentResult adjusted = pose_refiner_->adjustKeyframes(cameras);
+  if (!adjusted.solved) return false;
+  // Every refined pair of two adjusted keyframes at their adjusted relative pose.
+  std::vector<std::pair<int64_t, int64_t>> pairs;
+  for (const auto& pair : refined_poses_.pairs()) pairs.push_back(pair.first);
+  for (const auto& pair : pairs) {
+    const auto first = adjusted.poses.find(pair.first), second = adjusted.poses.find(pair.second);
+    if (first == adjusted.poses.end() || second == adjusted.poses.end()) continue;
+    refined_poses_.record(pair.first, cameraAt(cameras.at(pair.first), first->second), pair.second,
+                          cameraAt(cameras.at(pair.second), second->second));
+  }
+  for (size_t s = 0; s < problem->source_keys.size(); ++s)
+    refined_poses_.place(id, problem->reference_camera, problem->source_keys[s], &problem->source_cameras[s]);
+  map_poses_ = adjusted.poses;
+  placeMapPoses();
+  return true;
+}
+
+bool OnlineMapper::stereoPosesMoved(int64_t id, const EstimateRecord& record) const {
+  // Relative depth error of a pose change at a parallax of ~3 deg (10 cm at
+  // 2 m): 0.01 deg of rotation ~0.3 %; a baseline 0.2 % longer 0.2 %.
+  // (pose_refinement.h: max_pose_reestimates)
+  constexpr double kMaxTurnRad = 0.01 * M_PI / 180, kMaxDirectionRad = 0.05 * M_PI / 180, kMaxLengthChange = 2e-3;
+  const PoseRefinementOptions& options = options_.pose_refinement;
+  if (!options.enabled || !options.keyframe_bundle_adjustment || record.stereo_sources.empty() ||
+      record.pose_reestimates >= options.max_pose_reestimates || !store_.contains(id))
+    return false;
+  for (const auto& [source, used] : record.stereo_sources) {
+    PinholeCamera now = used;
+    if (!store_.contains(source) || !refined_poses_.place(id, record.stereo_reference, source, &now)) continue;
+    const Eigen::Matrix3d turn = now.R * used.R.transpose();
+    const Eigen::Vector3d used_centre = record.stereo_reference.R * used.center() + record.stereo_reference.t;
+    const Eigen::Vector3d now_centre = record.stereo_reference.R * now.center() + record.stereo_reference.t;
+    const double length = used_centre.norm();
+    if (!(length > 0)) continue;
+    if (Eigen::AngleAxisd(turn).angle() > kMaxTurnRad ||
+        std::abs(now_centre.norm() / length - 1) > kMaxLengthChange ||
+        std::acos(std::clamp(now_centre.normalized().dot(used_centre.normalized()), -1.0, 1.0)) > kMaxDirectionRad)
+      return true;
+  }
+  return false;
+}
+
+void OnlineMapper::placeMapPoses() {
   // Each solve moves every keyframe a little; re-posing all points for
   // changes far below the map's voxels would cost more than the pose
   // refinement itself: a keyframe moves when it is off by 1 mm or 1e-4 rad

@@ -33,6 +33,7 @@ std::string PoseRefinementOptions::validate() const {
           "max_correction_deg", max_correction_deg, "in (0, 180]");
   require(std::isfinite(graph_rotation_sigma_deg) && graph_rotation_sigma_deg > 0, "graph_rotation_sigma_deg",
           graph_rotation_sigma_deg, "finite and > 0");
+  require(max_pose_reestimates >= 0, "max_pose_reestimates", max_pose_reestimates, ">= 0");
   require(std::isfinite(graph_direction_sigma_deg) && graph_direction_sigma_deg > 0, "graph_direction_sigma_deg",
           graph_direction_sigma_deg, "finite and > 0");
   return why.str();
@@ -87,6 +88,12 @@ const std::vector<PoseRefinementOptionInfo>& poseRefinementOptionTable() {
                   "correct_map_poses: std dev of a refined pair's relative rotation, deg"),
       numberField("graph_direction_sigma_deg", &O::graph_direction_sigma_deg,
                   "correct_map_poses: std dev of a refined pair's baseline direction, deg"),
+      switchField("keyframe_bundle_adjustment", &O::keyframe_bundle_adjustment,
+                  "instead of the graph: one bundle adjustment over the matches of all stored keyframes after each "
+                  "refinement; its poses place the map and are the stereo's and the fusion's relative poses"),
+      numberField("max_pose_reestimates", &O::max_pose_reestimates,
+                  "keyframe_bundle_adjustment: re-estimates per keyframe when the adjustment moves its sources "
+                  "(0.01 deg, 0.05 deg of direction or 0.2 % of length); 0 = never"),
   };
   return table;
 }

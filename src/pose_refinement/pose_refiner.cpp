@@ -92,6 +92,17 @@ std::vector<SourcePoseOutcome> adjustSources(const PoseRefinementOptions& option
   return outcome;
 }
 
+// The star's and the keyframes' adjustments take the same noise model and
+// limits from the options.
+template <typename Settings>
+void copyAdjustmentSettings(const PoseRefinementOptions& options, Settings* settings) {
+  settings->feature_sigma_px = options.feature_sigma_px;
+  settings->huber_px = options.inlier_threshold_px;
+  settings->prior_position_sigma_m = options.prior_position_sigma_m;
+  settings->prior_rotation_sigma_rad = options.prior_rotation_sigma_deg * kPi / 180;
+  settings->max_iterations = options.max_iterations;
+}
+
 }  // namespace
 
 class PoseRefiner::Impl {
@@ -99,8 +110,12 @@ class PoseRefiner::Impl {
   explicit Impl(const PoseRefinementOptions& options) : options_(options) {}
 
   PoseRefinementResult refine(DepthProblem* problem);
-  void forget(int64_t key) { cache_.erase(key); }
-  void forgetAll() { cache_.clear(); }
+  KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras) const;
+  void forget(int64_t key);
+  void forgetAll() {
+    cache_.clear();
+    pair_matches_.clear();
+  }
   size_t cached() const { return cache_.size(); }
 
  private:
@@ -109,7 +124,32 @@ class PoseRefiner::Impl {
 
   PoseRefinementOptions options_;
   std::map<int64_t, std::shared_ptr<const ImageFeatures>> cache_;
+  // (reference key, source key) -> matched features, of the latest
+  // refinement of the pair that refined or confirmed the source.
+  std::map<std::pair<int64_t, int64_t>, std::vector<std::pair<int, int>>> pair_matches_;
 };
+
+void PoseRefiner::Impl::forget(int64_t key) {
+  cache_.erase(key);
+  for (auto pair = pair_matches_.begin(); pair != pair_matches_.end();) {
+    if (pair->first.first == key || pair->first.second == key) pair = pair_matches_.erase(pair);
+    else ++pair;
+  }
+}
+
+KeyframeBundleAdjustmentResult PoseRefiner::Impl::adjustKeyframes(
+    const std::map<int64_t, PinholeCamera>& cameras) const {
+  std::map<int64_t, BundleKeyframe> keyframes;
+  for (const auto& entry : cameras) {
+    const auto features = cache_.find(entry.first);
+    if (features != cache_.end()) keyframes[entry.first] = {entry.second, features->second->pixels};
+  }
+  std::vector<KeyframeFeatureMatches> matches;
+  for (const auto& pair : pair_matches_) matches.push_back({pair.first.first, pair.first.second, pair.second});
+  KeyframeBundleAdjustmentSettings settings;
+  copyAdjustmentSettings(options_, &settings);
+  return amhmvs::adjustKeyframes(keyframes, matches, settings);
+}
 
 std::shared_ptr<const ImageFeatures> PoseRefiner::Impl::features(const ImageViewU8& image, int64_t key,
                                                                  double* detect_ms) {
@@ -169,11 +209,7 @@ PoseRefinementResult PoseRefiner::Impl::refine(DepthProblem* problem) {
   }
   result.points = static_cast<int>(rays.size());
   StarAdjustmentSettings settings;
-  settings.feature_sigma_px = options_.feature_sigma_px;
-  settings.huber_px = options_.inlier_threshold_px;
-  settings.prior_position_sigma_m = options_.prior_position_sigma_m;
-  settings.prior_rotation_sigma_rad = options_.prior_rotation_sigma_deg * kPi / 180;
-  settings.max_iterations = options_.max_iterations;
+  copyAdjustmentSettings(options_, &settings);
   // Points start in the middle of the depth range (in inverse depth) and may
   // go a factor of 4 beyond it.
   settings.inverse_depth_min = 0.25 / problem->depth_max;
@@ -200,7 +236,16 @@ PoseRefinementResult PoseRefiner::Impl::refine(DepthProblem* problem) {
     const int index = static_cast<int>(s);
     SourcePoseRefinement& report = result.sources[s];
     report.outcome = outcome[s];
-    if (outcome[s] != SourcePoseOutcome::kRefined && outcome[s] != SourcePoseOutcome::kConfirmed) continue;
+    const bool agreed = outcome[s] == SourcePoseOutcome::kRefined || outcome[s] == SourcePoseOutcome::kConfirmed;
+    if (problem->reference_key != kNoImageKey && keyOf(s) != kNoImageKey) {
+      const std::pair<int64_t, int64_t> pair(problem->reference_key, keyOf(s));
+      pair_matches_.erase(pair);
+      if (agreed) {
+        std::vector<std::pair<int, int>>& kept = pair_matches_[pair];
+        for (const FeatureMatch& match : matches[s].inliers) kept.emplace_back(match.reference, match.source);
+      }
+    }
+    if (!agreed) continue;
     report.inliers = static_cast<int>(adjustment.observationCount(index));
     report.rms_before_px = rms(adjustment.epipolarErrors(index, /*tracker_pose=*/true));
     report.rms_after_px = rms(adjustment.epipolarErrors(index, /*tracker_pose=*/false));
@@ -228,6 +273,9 @@ PoseRefiner::PoseRefiner(const PoseRefinementOptions& options) : options_(option
 PoseRefiner::~PoseRefiner() = default;
 
 PoseRefinementResult PoseRefiner::refine(DepthProblem* problem) { return impl_->refine(problem); }
+KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras) const {
+  return impl_->adjustKeyframes(cameras);
+}
 void PoseRefiner::forget(int64_t key) { impl_->forget(key); }
 void PoseRefiner::forgetAll() { impl_->forgetAll(); }
 size_t PoseRefiner::cachedImages() const { return impl_->cached(); }

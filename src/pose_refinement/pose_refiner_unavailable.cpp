@@ -22,6 +22,10 @@ PoseRefinementResult PoseRefiner::refine(DepthProblem*) {
   return result;
 }
 
+KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64_t, PinholeCamera>&) const {
+  return {};
+}
+
 void PoseRefiner::forget(int64_t) {}
 void PoseRefiner::forgetAll() {}
 size_t PoseRefiner::cachedImages() const { return 0; }

@@ -419,8 +419,9 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   // The map: written, and judged against the ground-truth surface.
   std::vector<Eigen::Vector3f> map_points;
   // With corrected map poses: the exact depth placed where the map put each keyframe.
-  const bool map_poses_corrected = options_.pipeline.mapper.pose_refinement.enabled &&
-                                   options_.pipeline.mapper.pose_refinement.correct_map_poses;
+  const PoseRefinementOptions& refinement = options_.pipeline.mapper.pose_refinement;
+  const bool map_poses_corrected =
+      refinement.enabled && (refinement.correct_map_poses || refinement.keyframe_bundle_adjustment);
   std::vector<Eigen::Vector3f> map_placed_truth;
   pipeline.withMapper([&](const OnlineMapper& mapper) {
     writeMap(dir_ + "/map.ply", mapper.map());

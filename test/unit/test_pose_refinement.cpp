@@ -152,6 +152,7 @@ TEST(PoseRefinementOptions, DefaultsAreValidAndBadValuesNamed) {
       {[](PoseRefinementOptions& o) { o.max_iterations = 0; }, "max_iterations"},
       {[](PoseRefinementOptions& o) { o.max_correction_m = INFINITY; }, "max_correction_m"},
       {[](PoseRefinementOptions& o) { o.max_correction_deg = 200; }, "max_correction_deg"},
+      {[](PoseRefinementOptions& o) { o.max_pose_reestimates = -1; }, "max_pose_reestimates"},
   };
   for (const auto& [spoil, name] : bad) {
     PoseRefinementOptions options;

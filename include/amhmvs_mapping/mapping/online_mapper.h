@@ -51,6 +51,12 @@
 // With pose_refinement.correct_map_poses the map places each keyframe at
 // its pose from the keyframe pose graph (keyframe_pose_graph.h), solved again
 // after each pose refinement (points moved exactly, as for a loop closure).
+// With pose_refinement.keyframe_bundle_adjustment instead, one bundle
+// adjustment over the matches of all stored keyframes
+// (keyframe_bundle_adjustment.h) gives the map poses, the sources' poses of
+// the stereo and the relative poses of the fusion; a keyframe whose sources
+// it has moved since the estimate is estimated again (in refine(), up to
+// pose_refinement.max_pose_reestimates times; reported as a refinement).
 // Loop closure: updatePose() re-poses the keyframe in the store and moves its
 // points in the map exactly (remove with the old pose, add with the new one);
 // a waiting keyframe is fused later with the pose it has then.
@@ -370,7 +376,16 @@ class OnlineMapper {
     // the estimate (an idle pipeline asks every step; nothing changed since).
     uint64_t selection_checked_at = kNeverChecked;
     static constexpr uint64_t kNeverChecked = ~uint64_t{0};
+    // pose_refinement.keyframe_bundle_adjustment: each source's camera as
+    // the estimate used it (reference at the tracker's pose), and how often
+    // it was estimated again because the adjustment moved them since.
+    std::map<int64_t, PinholeCamera> stereo_sources;
+    PinholeCamera stereo_reference;
+    int pose_reestimates = 0;
   };
+  // True when the keyframe bundle adjustment has moved a source of the
+  // record's estimate (relative to its reference) enough to change the depth.
+  bool stereoPosesMoved(int64_t id, const EstimateRecord& record) const;
   // The consistency views of a keyframe with a depth map (see step 5).
   std::vector<int64_t> consistencyViews(int64_t id) const;
   // The consistency views of keyframe `id` as fusion reads them: local ids
@@ -381,6 +396,12 @@ class OnlineMapper {
   // pose_refinement.correct_map_poses: solves the keyframe pose graph over
   // the stored keyframes and moves their points in the map to the result.
   void correctMapPoses();
+  // pose_refinement.keyframe_bundle_adjustment: adjusts all stored keyframes
+  // together; its relative poses replace the refined pairs' and the problem's
+  // sources', its poses place the map. False (nothing changed) when unsolved.
+  bool adjustKeyframePoses(int64_t id, DepthProblem* problem);
+  // Moves the map's keyframes to map_poses_ (those off by more than a little).
+  void placeMapPoses();
   // Where the map places a keyframe: its corrected pose, else the tracker's.
   Eigen::Isometry3d mapPose(int64_t id) const;
   // Fuses keyframe `id`'s depth map against the consistency views.
@@ -425,7 +446,8 @@ class OnlineMapper {
   OnlineMapperOptions options_;
   std::unique_ptr<PoseRefiner> pose_refiner_;  // when options_.pose_refinement.enabled
   RefinedRelativePoses refined_poses_;         // what it found, for fusion (pose_refinement.in_fusion)
-  std::map<int64_t, Eigen::Isometry3d> map_poses_;  // pose_refinement.correct_map_poses: stored keyframes' map poses
+  // pose_refinement.correct_map_poses / keyframe_bundle_adjustment: stored keyframes' map poses
+  std::map<int64_t, Eigen::Isometry3d> map_poses_;
   EstimateFunction estimate_;
   std::unique_ptr<SerialWorker> estimate_worker_;  // estimates that overlap a deferred fusion
   bool fusion_deferred_ = false;  // step 5 of the last depth map waits (process(..., next_follows))

@@ -31,11 +31,13 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "amhmvs_mapping/core/option_field.h"
+#include "amhmvs_mapping/mapping/keyframe_bundle_adjustment.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 
 namespace amhmvs {
@@ -78,6 +80,18 @@ struct PoseRefinementOptions {
   bool correct_map_poses = false;
   double graph_rotation_sigma_deg = 0.05;
   double graph_direction_sigma_deg = 0.2;
+  // Instead of the graph: one bundle adjustment over the matches of all
+  // stored keyframes (keyframe_bundle_adjustment.h) after each refinement.
+  // Its poses place the keyframes in the map, and its relative poses are
+  // the stereo's and the fusion's, so that the depth maps' scale and their
+  // placement agree. Depth images and published clouds keep the tracker's pose.
+  bool keyframe_bundle_adjustment = false;
+  // keyframe_bundle_adjustment: a keyframe is estimated again (up to this
+  // many times) once the adjustment has moved one of its sources relative to
+  // it by more than 0.01 deg, 0.05 deg of baseline direction or 0.2 % of
+  // baseline length (each ~0.3 % of depth at a 3 deg parallax): the scale
+  // settles as keyframes arrive. 0: never.
+  int max_pose_reestimates = 8;
 
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;
@@ -154,7 +168,13 @@ class PoseRefiner {
   // Throws InputError for an invalid problem.
   PoseRefinementResult refine(DepthProblem* problem);
 
-  // Drops the cached features of an image key (its keyframe left the store).
+  // The bundle adjustment of all keyframes (keyframe_bundle_adjustment.h)
+  // over the cached features and the matches of every refined or confirmed
+  // pair since their keys were cached; `cameras` are the keyframes at the
+  // tracker's poses, by image key (others are left out).
+  KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras) const;
+
+  // Drops the cached features and matches of an image key (its keyframe left the store).
   void forget(int64_t key);
   void forgetAll();
   size_t cachedImages() const;

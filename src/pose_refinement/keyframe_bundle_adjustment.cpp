@@ -1,0 +1,242 @@
+#include "amhmvs_mapping/mapping/keyframe_bundle_adjustment.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <string>
+
+#include "amhmvs_mapping/mapping/keyframe_store.h"
+#include "pose_prior_residual.h"
+
+namespace amhmvs {
+namespace {
+
+template <typename T>
+using Vector3 = Eigen::Matrix<T, 3, 1>;
+
+// (pi(K R'^T (X - c')) - x) / sigma for one observation x.
+struct ReprojectionResidual {
+  Eigen::Matrix3d rotation;  // tracker, camera-to-world
+  Eigen::Vector3d centre;    // tracker, world
+  double fx, fy, cx, cy;
+  Eigen::Vector2d pixel;
+  double inverse_sigma;
+
+  template <typename T>
+  bool operator()(const T* w, const T* dc, const T* point, T* residual) const {
+    const Vector3<T> offset(point[0] - (T(centre[0]) + dc[0]), point[1] - (T(centre[1]) + dc[1]),
+                            point[2] - (T(centre[2]) + dc[2]));
+    const Vector3<T> in_camera = correctedRotation(w, rotation).transpose() * offset;
+    if (!(in_camera[2] > T(0))) return false;  // behind the camera: the step is refused
+    residual[0] = (T(fx) * in_camera[0] / in_camera[2] + T(cx) - T(pixel.x())) * T(inverse_sigma);
+    residual[1] = (T(fy) * in_camera[1] / in_camera[2] + T(cy) - T(pixel.y())) * T(inverse_sigma);
+    return true;
+  }
+};
+
+struct Observation {
+  int64_t key;
+  Eigen::Vector2d pixel;
+  bool active = true;
+};
+
+struct Track {
+  std::vector<Observation> observations;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  int activeCount() const {
+    return static_cast<int>(std::count_if(observations.begin(), observations.end(),
+                                          [](const Observation& o) { return o.active; }));
+  }
+};
+
+// Features joined into tracks; a join that would put two features of one
+// keyframe into a track is refused (one of its matches is wrong), so a
+// mismatch cannot chain two tracks into one.
+class TrackSets {
+ public:
+  int add(int64_t key) {
+    parent_.push_back(static_cast<int>(parent_.size()));
+    keys_.push_back({key});
+    return parent_.back();
+  }
+  int find(int node) {
+    while (parent_[node] != node) node = parent_[node] = parent_[parent_[node]];
+    return node;
+  }
+  void join(int a, int b) {
+    a = find(a);
+    b = find(b);
+    if (a == b) return;
+    for (int64_t key : keys_[a])
+      if (std::find(keys_[b].begin(), keys_[b].end(), key) != keys_[b].end()) return;
+    if (keys_[a].size() > keys_[b].size()) std::swap(a, b);
+    parent_[a] = b;
+    keys_[b].insert(keys_[b].end(), keys_[a].begin(), keys_[a].end());
+    keys_[a].clear();
+  }
+
+ private:
+  std::vector<int> parent_;
+  std::vector<std::vector<int64_t>> keys_;  // per root: the keyframes of its features
+};
+
+// Matches joined into tracks: features connected by a chain of matches.
+std::vector<Track> buildTracks(const std::map<int64_t, BundleKeyframe>& keyframes,
+                               const std::vector<KeyframeFeatureMatches>& matches) {
+  std::map<std::pair<int64_t, int>, int> node_of;
+  std::vector<std::pair<int64_t, int>> feature_of;
+  TrackSets sets;
+  auto node = [&](int64_t key, int feature) {
+    const auto found = node_of.emplace(std::make_pair(key, feature), 0);
+    if (found.second) {
+      found.first->second = sets.add(key);
+      feature_of.push_back(found.first->first);
+    }
+    return found.first->second;
+  };
+  for (const KeyframeFeatureMatches& pair : matches) {
+    const auto first = keyframes.find(pair.first), second = keyframes.find(pair.second);
+    if (first == keyframes.end() || second == keyframes.end() || pair.first == pair.second) continue;
+    const int first_count = static_cast<int>(first->second.pixels.size());
+    const int second_count = static_cast<int>(second->second.pixels.size());
+    for (const auto& match : pair.features) {
+      if (match.first < 0 || match.first >= first_count || match.second < 0 || match.second >= second_count) continue;
+      sets.join(node(pair.first, match.first), node(pair.second, match.second));
+    }
+  }
+  std::map<int, Track> by_root;
+  for (size_t n = 0; n < feature_of.size(); ++n) {
+    const auto& feature = feature_of[n];
+    by_root[sets.find(static_cast<int>(n))].observations.push_back(
+        {feature.first, keyframes.at(feature.first).pixels[feature.second]});
+  }
+  std::vector<Track> tracks;
+  for (auto& entry : by_root) {
+    std::vector<Observation>& observations = entry.second.observations;
+    if (observations.size() >= 2) tracks.push_back(std::move(entry.second));
+  }
+  return tracks;
+}
+
+Eigen::Vector3d rayOf(const PinholeCamera& camera, const Eigen::Vector2d& pixel) {
+  const Eigen::Vector3d in_camera((pixel.x() - camera.cx) / camera.fx, (pixel.y() - camera.cy) / camera.fy, 1.0);
+  return (camera.R.transpose() * in_camera).normalized();
+}
+
+// The point nearest to the active observations' rays (least squares);
+// false when they meet at less than min_angle or the point is behind a camera.
+bool triangulate(const std::map<int64_t, BundleKeyframe>& keyframes, double min_angle, Track* track) {
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d right = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> rays;
+  for (const Observation& observation : track->observations) {
+    if (!observation.active) continue;
+    const PinholeCamera& camera = keyframes.at(observation.key).camera;
+    rays.push_back(rayOf(camera, observation.pixel));
+    const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - rays.back() * rays.back().transpose();
+    normal += across;
+    right += across * camera.center();
+  }
+  double widest_cos = 1;
+  for (size_t i = 0; i < rays.size(); ++i)
+    for (size_t j = i + 1; j < rays.size(); ++j) widest_cos = std::min(widest_cos, rays[i].dot(rays[j]));
+  if (!(widest_cos < std::cos(min_angle))) return false;
+  track->point = normal.ldlt().solve(right);
+  for (const Observation& observation : track->observations) {
+    if (observation.active && !(keyframes.at(observation.key).camera.toCamera(track->point).z() > 0)) return false;
+  }
+  return track->point.allFinite();
+}
+
+struct Correction {
+  double w[3] = {0, 0, 0}, dc[3] = {0, 0, 0};
+};
+
+ReprojectionResidual residualOf(const PinholeCamera& camera, const Eigen::Vector2d& pixel, double inverse_sigma) {
+  return {camera.R.transpose(), camera.center(), camera.fx, camera.fy, camera.cx, camera.cy, pixel, inverse_sigma};
+}
+
+// Reprojection error in pixels (infinite behind the camera).
+double errorPx(const ReprojectionResidual& residual, const Correction& correction, const Eigen::Vector3d& point) {
+  double value[2];
+  if (!residual(correction.w, correction.dc, point.data(), value)) return INFINITY;
+  return std::hypot(value[0], value[1]) / residual.inverse_sigma;
+}
+
+bool solve(const std::map<int64_t, BundleKeyframe>& keyframes, const KeyframeBundleAdjustmentSettings& settings,
+           std::vector<Track>* tracks, std::map<int64_t, Correction>* corrections) {
+  ceres::Problem problem;
+  const double inverse_sigma = 1 / settings.feature_sigma_px;
+  for (Track& track : *tracks) {
+    if (track.activeCount() < 2) continue;
+    for (const Observation& observation : track.observations) {
+      if (!observation.active) continue;
+      Correction& correction = (*corrections)[observation.key];
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 3, 3, 3>(new ReprojectionResidual(
+                                   residualOf(keyframes.at(observation.key).camera, observation.pixel, inverse_sigma))),
+                               new ceres::HuberLoss(settings.huber_px * inverse_sigma), correction.w, correction.dc,
+                               track.point.data());
+    }
+  }
+  if (problem.NumResidualBlocks() == 0) return false;
+  addPosePriors(settings.prior_rotation_sigma_rad, settings.prior_position_sigma_m, corrections, &problem);
+  return solveProblem(&problem, settings.max_iterations, ceres::SPARSE_SCHUR, ceres::DENSE_SCHUR);
+}
+
+}  // namespace
+
+bool keyframeBundleAdjustmentAvailable() { return true; }
+
+KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, BundleKeyframe>& keyframes,
+                                               const std::vector<KeyframeFeatureMatches>& matches,
+                                               const KeyframeBundleAdjustmentSettings& settings) {
+  KeyframeBundleAdjustmentResult result;
+  std::vector<Track> tracks;
+  for (Track& track : buildTracks(keyframes, matches)) {
+    if (triangulate(keyframes, settings.min_ray_angle_rad, &track)) tracks.push_back(std::move(track));
+  }
+  std::map<int64_t, Correction> corrections;
+  if (!solve(keyframes, settings, &tracks, &corrections)) return result;
+  // Observations far off after the first solve are mismatches: out; the
+  // second solve starts from the tracker's poses and points triangulated
+  // there from the observations that stay.
+  const double inverse_sigma = 1 / settings.feature_sigma_px;
+  for (Track& track : tracks) {
+    for (Observation& observation : track.observations) {
+      const ReprojectionResidual residual =
+          residualOf(keyframes.at(observation.key).camera, observation.pixel, inverse_sigma);
+      if (observation.active && errorPx(residual, corrections[observation.key], track.point) > 2 * settings.huber_px)
+        observation.active = false;
+    }
+    if (!triangulate(keyframes, settings.min_ray_angle_rad, &track))
+      for (Observation& observation : track.observations) observation.active = false;
+  }
+  const std::vector<Track> initial = tracks;
+  corrections.clear();
+  if (!solve(keyframes, settings, &tracks, &corrections)) return result;
+  result.solved = true;
+  double before = 0, after = 0;
+  const Correction none;
+  for (size_t t = 0; t < tracks.size(); ++t) {
+    if (tracks[t].activeCount() < 2) continue;
+    ++result.tracks;
+    for (const Observation& observation : tracks[t].observations) {
+      if (!observation.active) continue;
+      const ReprojectionResidual residual =
+          residualOf(keyframes.at(observation.key).camera, observation.pixel, inverse_sigma);
+      before += std::pow(std::min(errorPx(residual, none, initial[t].point), 1e3), 2);
+      after += std::pow(std::min(errorPx(residual, corrections.at(observation.key), tracks[t].point), 1e3), 2);
+      ++result.observations;
+    }
+  }
+  result.rms_before_px = std::sqrt(before / std::max(1, result.observations));
+  result.rms_after_px = std::sqrt(after / std::max(1, result.observations));
+  for (const auto& entry : corrections)
+    result.poses[entry.first] =
+        correctedPose(cameraToWorld(keyframes.at(entry.first).camera), entry.second.w, entry.second.dc);
+  return result;
+}
+
+}  // namespace amhmvs
