@@ -33,16 +33,24 @@ struct Scene {
 // 8 keyframes 10 cm apart looking at points 2-4 m away (a 320x240 camera),
 // the tracker off by 1 cm and 0.3 deg per axis; features are the points'
 // projections with 0.2 px of noise, numbered differently in every keyframe.
-Scene scene() {
+Scene scene(unsigned seed = 11) {
   Scene s;
-  std::mt19937 random(11);
+  std::mt19937 random(seed);
   std::normal_distribution<double> normal(0, 1);
   std::uniform_real_distribution<double> uniform(-1, 1);
-  const auto noise = [&](double sigma) -> Eigen::Vector3d {
-    return Eigen::Vector3d(normal(random), normal(random), normal(random)) * sigma;
+  // Draws one after another: the arguments of one call are evaluated in an
+  // unspecified order, so gcc and clang would see different scenes.
+  const auto draws = [&](auto& distribution, int count) {
+    Eigen::Vector3d values = Eigen::Vector3d::Zero();
+    for (int i = 0; i < count; ++i) values[i] = distribution(random);
+    return values;
   };
+  const auto noise = [&](double sigma) -> Eigen::Vector3d { return draws(normal, 3) * sigma; };
   std::vector<Eigen::Vector3d> points;
-  for (int p = 0; p < 400; ++p) points.emplace_back(1.5 * uniform(random) + 0.35, 1.0 * uniform(random), 3 + uniform(random));
+  for (int p = 0; p < 400; ++p) {
+    const Eigen::Vector3d u = draws(uniform, 3);
+    points.emplace_back(1.5 * u.x() + 0.35, 1.0 * u.y(), 3 + u.z());
+  }
   PinholeCamera camera;
   camera.width = 320;
   camera.height = 240;
@@ -69,7 +77,7 @@ Scene scene() {
     std::vector<int> feature_of_point(points.size(), -1);
     for (int p : order) {
       const Eigen::Vector3d in_camera = true_camera.toCamera(points[p]);
-      const Eigen::Vector2d pixel = true_camera.project(in_camera) + 0.2 * Eigen::Vector2d(normal(random), normal(random));
+      const Eigen::Vector2d pixel = true_camera.project(in_camera) + 0.2 * draws(normal, 2).head<2>();
       if (in_camera.z() <= 0 || pixel.x() < 0 || pixel.y() < 0 || pixel.x() > 319 || pixel.y() > 239) continue;
       feature_of_point[p] = static_cast<int>(keyframe.pixels.size());
       keyframe.pixels.push_back(pixel);
@@ -91,21 +99,26 @@ Scene scene() {
 }
 
 struct RelativeErrors {
-  double worst_deg = 0;           // relative rotation
-  double worst_length_ratio = 0;  // |baseline length / true - 1|
+  double worst_deg = 0;     // relative rotation
+  double common_scale = 1;  // median over pairs of baseline length / true
+  double worst_spread = 0;  // |length ratio / common_scale - 1|: one scale for all?
 };
 
 RelativeErrors relativeErrors(const Scene& s, const std::map<int64_t, Eigen::Isometry3d>& poses) {
   RelativeErrors errors;
+  std::vector<double> ratios;
   for (int64_t i = 0; i < kKeyframes; ++i) {
     for (int64_t j = i + 1; j < kKeyframes; ++j) {
       const Eigen::Isometry3d truth = s.truth.at(i).inverse() * s.truth.at(j);
       const Eigen::Isometry3d solved = poses.at(i).inverse() * poses.at(j);
       errors.worst_deg = std::max(errors.worst_deg, angleDeg(truth.linear(), solved.linear()));
-      errors.worst_length_ratio =
-          std::max(errors.worst_length_ratio, std::abs(solved.translation().norm() / truth.translation().norm() - 1));
+      ratios.push_back(solved.translation().norm() / truth.translation().norm());
     }
   }
+  std::vector<double> sorted = ratios;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  errors.common_scale = sorted[sorted.size() / 2];
+  for (double ratio : ratios) errors.worst_spread = std::max(errors.worst_spread, std::abs(ratio / errors.common_scale - 1));
   return errors;
 }
 
@@ -115,64 +128,78 @@ std::map<int64_t, Eigen::Isometry3d> trackerPoses(const Scene& s) {
   return poses;
 }
 
+// Three scenes: the worst of them is held.
+constexpr unsigned kSeeds[] = {11, 12, 13};
+
 TEST(KeyframeBundleAdjustment, TracksAcrossKeyframesMakeTheirPosesAgree) {
   if (!keyframeBundleAdjustmentAvailable()) GTEST_SKIP() << "this build has no Ceres";
-  const Scene s = scene();
-  const KeyframeBundleAdjustmentResult result = adjustKeyframes(s.keyframes, s.matches, KeyframeBundleAdjustmentSettings());
-  ASSERT_TRUE(result.solved);
-  ASSERT_EQ(result.poses.size(), static_cast<size_t>(kKeyframes));
-  const RelativeErrors tracker = relativeErrors(s, trackerPoses(s));
-  const RelativeErrors adjusted = relativeErrors(s, result.poses);
-  std::printf("tracks %d, observations %d, rms %.3f -> %.3f px; relative poses, worst: tracker %.3f deg, length %.2f %%;"
-              " adjusted %.4f deg, length %.3f %%\n",
-              result.tracks, result.observations, result.rms_before_px, result.rms_after_px, tracker.worst_deg,
-              100 * tracker.worst_length_ratio, adjusted.worst_deg, 100 * adjusted.worst_length_ratio);
-  EXPECT_GT(result.tracks, 300);
-  EXPECT_GT(result.rms_before_px, 1.0);
-  EXPECT_LT(result.rms_after_px, 0.3);  // the features' own noise: 0.2 px per axis
-  EXPECT_GT(tracker.worst_deg, 0.4);
-  // Measured: 0.033 deg and 0.98 % (the tracker: 1.24 deg, 29 %).
-  EXPECT_LT(adjusted.worst_deg, 0.05);
-  // One scale for all: the baselines' ratios agree; their common scale is
-  // the tracker's (a few tenths of a per cent here, where its pairs are off by up to 20 %).
-  EXPECT_GT(tracker.worst_length_ratio, 0.1);
-  EXPECT_LT(adjusted.worst_length_ratio, 0.015);
-  // Where the tracker put the keyframes on average: each within its noise.
-  for (const auto& entry : result.poses) {
-    EXPECT_LT(angleDeg(entry.second.linear(), s.truth.at(entry.first).linear()), 0.6) << entry.first;
-    EXPECT_LT((entry.second.translation() - s.truth.at(entry.first).translation()).norm(), 0.02) << entry.first;
+  for (unsigned seed : kSeeds) {
+    const Scene s = scene(seed);
+    const KeyframeBundleAdjustmentResult result =
+        adjustKeyframes(s.keyframes, s.matches, KeyframeBundleAdjustmentSettings());
+    ASSERT_TRUE(result.solved);
+    ASSERT_EQ(result.poses.size(), static_cast<size_t>(kKeyframes));
+    const RelativeErrors tracker = relativeErrors(s, trackerPoses(s));
+    const RelativeErrors adjusted = relativeErrors(s, result.poses);
+    std::printf("seed %u: tracks %d, observations %d, rms %.3f -> %.3f px; relative poses, worst: tracker %.3f deg,"
+                " length spread %.2f %%; adjusted %.4f deg, spread %.3f %%, common scale %.4f\n",
+                seed, result.tracks, result.observations, result.rms_before_px, result.rms_after_px, tracker.worst_deg,
+                100 * tracker.worst_spread, adjusted.worst_deg, 100 * adjusted.worst_spread, adjusted.common_scale);
+    EXPECT_GT(result.tracks, 300);
+    EXPECT_GT(result.rms_before_px, 1.0);
+    EXPECT_LT(result.rms_after_px, 0.3);  // the features' own noise: 0.2 px per axis
+    EXPECT_GT(tracker.worst_deg, 0.4);
+    EXPECT_GT(tracker.worst_spread, 0.1);
+    // Measured over the three scenes: 0.035-0.102 deg, spread 1.0-1.7 %
+    // (the tracker: 1.24-1.67 deg, 10-25 %). The rotation is what 0.2 px
+    // features at 2-4 m over 10-70 cm of baseline allow. The common scale
+    // is the tracker's mean (its 1 cm noise over a 70 cm path: about 1.5 %;
+    // measured 0.971-1.015), not the images'.
+    EXPECT_LT(adjusted.worst_deg, 0.15);
+    EXPECT_LT(adjusted.worst_spread, 0.025);
+    EXPECT_NEAR(adjusted.common_scale, 1.0, 0.05);
+    // Where the tracker put the keyframes on average: each within its noise.
+    for (const auto& entry : result.poses) {
+      EXPECT_LT(angleDeg(entry.second.linear(), s.truth.at(entry.first).linear()), 0.6) << entry.first;
+      EXPECT_LT((entry.second.translation() - s.truth.at(entry.first).translation()).norm(), 0.03) << entry.first;
+    }
   }
 }
 
 TEST(KeyframeBundleAdjustment, MismatchesDoNotSpoilIt) {
   if (!keyframeBundleAdjustmentAvailable()) GTEST_SKIP() << "this build has no Ceres";
-  Scene s = scene();
-  const KeyframeBundleAdjustmentResult clean = adjustKeyframes(s.keyframes, s.matches, KeyframeBundleAdjustmentSettings());
-  // Every fifth match of each pair rotated to another feature: 20 % wrong.
-  for (KeyframeFeatureMatches& pair : s.matches) {
-    const size_t count = pair.features.size();
-    for (size_t m = 0; m < count; m += 5) pair.features[m].second = pair.features[(m + 7) % count].second;
+  for (unsigned seed : kSeeds) {
+    Scene s = scene(seed);
+    const KeyframeBundleAdjustmentResult clean =
+        adjustKeyframes(s.keyframes, s.matches, KeyframeBundleAdjustmentSettings());
+    // Every fifth match of each pair rotated to another feature: 20 % wrong.
+    for (KeyframeFeatureMatches& pair : s.matches) {
+      const size_t count = pair.features.size();
+      for (size_t m = 0; m < count; m += 5) pair.features[m].second = pair.features[(m + 7) % count].second;
+    }
+    // And matches that name no keyframe or no feature: ignored.
+    s.matches.push_back({0, 99, {{0, 0}}});
+    s.matches.push_back({0, 1, {{-1, 3}, {0, 100000}}});
+    const KeyframeBundleAdjustmentResult result =
+        adjustKeyframes(s.keyframes, s.matches, KeyframeBundleAdjustmentSettings());
+    ASSERT_TRUE(result.solved);
+    const RelativeErrors adjusted = relativeErrors(s, result.poses);
+    std::printf("seed %u with 20 %% mismatches: tracks %d (clean %d), rms after %.3f px; worst %.4f deg, spread %.3f %%,"
+                " common scale %.4f\n",
+                seed, result.tracks, clean.tracks, result.rms_after_px, adjusted.worst_deg, 100 * adjusted.worst_spread,
+                adjusted.common_scale);
+    // Joins that would give a track two features of one keyframe are refused:
+    // most tracks survive the mismatches (measured 82-86 % of the clean
+    // runs'; a mismatch splits a track, and two-view pieces leave).
+    EXPECT_GT(result.tracks, clean.tracks * 3 / 4);
+    EXPECT_LT(result.rms_after_px, 0.3);  // the far-off observations are out of the final solve
+    // Measured 0.05-0.20 deg, spread 0.9-1.9 %. With two-view tracks in the
+    // final solve 0.20-0.50 deg and up to 7.1 %; with Huber's loss in the
+    // first solve as well, up to 1.7 deg and 70 %.
+    EXPECT_LT(adjusted.worst_deg, 0.3);
+    EXPECT_LT(adjusted.worst_spread, 0.03);
+    EXPECT_NEAR(adjusted.common_scale, 1.0, 0.05);
   }
-  // And matches that name no keyframe or no feature: ignored.
-  s.matches.push_back({0, 99, {{0, 0}}});
-  s.matches.push_back({0, 1, {{-1, 3}, {0, 100000}}});
-  const KeyframeBundleAdjustmentResult result = adjustKeyframes(s.keyframes, s.matches, KeyframeBundleAdjustmentSettings());
-  ASSERT_TRUE(result.solved);
-  const RelativeErrors adjusted = relativeErrors(s, result.poses);
-  std::printf("with 20 %% mismatches: tracks %d (clean %d), rms after %.3f px; worst %.4f deg, length %.3f %%\n",
-              result.tracks, clean.tracks, result.rms_after_px, adjusted.worst_deg, 100 * adjusted.worst_length_ratio);
-  // Joins that would give a track two features of one keyframe are refused:
-  // most tracks survive the mismatches (measured 367 of 397).
-  EXPECT_GT(result.tracks, clean.tracks * 9 / 10);
-  EXPECT_LT(result.rms_after_px, 0.3);  // the far-off observations are out of the final solve
-  // Measured 0.20 deg and 1.9 %: a mismatch splits a track in two, and
-  // shorter tracks hold the poses less well than the clean run's (0.033 deg,
-  // 0.98 %); still a sixth and a fifteenth of the tracker's error. Leaving out
-  // every track that lost an observation (181 tracks: 0.14 deg, 2.5 %) or
-  // observations off by 20 px at the tracker's poses before the first solve
-  // (302 tracks: 0.69 deg, 15 %) was worse.
-  EXPECT_LT(adjusted.worst_deg, 0.3);
-  EXPECT_LT(adjusted.worst_length_ratio, 0.03);
 }
 
 TEST(KeyframeBundleAdjustment, NothingToAdjustWithoutTracks) {
@@ -180,12 +207,17 @@ TEST(KeyframeBundleAdjustment, NothingToAdjustWithoutTracks) {
   const Scene s = scene();
   EXPECT_FALSE(adjustKeyframes(s.keyframes, {}, KeyframeBundleAdjustmentSettings()).solved);
   EXPECT_FALSE(adjustKeyframes({}, s.matches, KeyframeBundleAdjustmentSettings()).solved);
-  // Keyframes without an observation are not in the result.
-  std::vector<KeyframeFeatureMatches> first_pair(s.matches.begin(), s.matches.begin() + 1);
-  const KeyframeBundleAdjustmentResult two = adjustKeyframes(s.keyframes, first_pair, KeyframeBundleAdjustmentSettings());
-  ASSERT_TRUE(two.solved);
-  EXPECT_EQ(two.poses.size(), 2u);
-  EXPECT_EQ(two.poses.count(0) + two.poses.count(1), 2u);
+  // Two keyframes make only two-view tracks: too short for the final solve.
+  const std::vector<KeyframeFeatureMatches> first_pair(s.matches.begin(), s.matches.begin() + 1);
+  EXPECT_FALSE(adjustKeyframes(s.keyframes, first_pair, KeyframeBundleAdjustmentSettings()).solved);
+  // Keyframes without an observation are not in the result (0-1 and 0-2:
+  // tracks over keyframes 0, 1, 2).
+  const std::vector<KeyframeFeatureMatches> first_pairs(s.matches.begin(), s.matches.begin() + 2);
+  const KeyframeBundleAdjustmentResult three =
+      adjustKeyframes(s.keyframes, first_pairs, KeyframeBundleAdjustmentSettings());
+  ASSERT_TRUE(three.solved);
+  EXPECT_EQ(three.poses.size(), 3u);
+  EXPECT_EQ(three.poses.count(0) + three.poses.count(1) + three.poses.count(2), 3u);
 }
 
 }  // namespace

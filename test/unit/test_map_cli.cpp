@@ -279,9 +279,9 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
 
   // And one bundle adjustment over all keyframes instead of the graph, its
   // poses the stereo's, the fusion's and the map's, keyframes estimated again
-  // when it moves their sources (session 22). Measured (CPU): 64.8 / 82.6 /
-  // 90.7 / 92.3 % within 1/2/5/10 % (the run above: 52.8 / 78.7 / 90.1 /
-  // 92.1), 28 refinements (4), map 9825 points, 90.2 / 99.5 % within 2 / 5 cm
+  // when it moves their sources (session 22). Measured (CPU): 65.2 / 82.9 /
+  // 90.6 / 92.3 % within 1/2/5/10 % (the run above: 52.8 / 78.7 / 90.1 /
+  // 92.1), 18 refinements (4), map 10093 points, 90.5 / 99.6 % within 2 / 5 cm
   // (4028, 78.7 / 97.2 %).
   const std::string bundle_summary =
       refinedRun("bundle", rolling_shutter +
