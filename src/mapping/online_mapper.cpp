@@ -667,17 +667,6 @@ void OnlineMapper::correctMapPoses() {
   placeMapPoses();
 }
 
-namespace {
-
-// `camera` (intrinsics kept) at a camera-to-world pose.
-PinholeCamera cameraAt(PinholeCamera camera, const Eigen::Isometry3d& camera_to_world) {
-  camera.R = camera_to_world.linear().transpose();
-  camera.t = -camera.R * camera_to_world.translation();
-  return camera;
-}
-
-}  // namespace
-
 bool OnlineMapper::adjustKeyframePoses(int64_t id, DepthProblem* problem) {
   std::map<int64_t, PinholeCamera> cameras;
   for (int64_t stored : store_.ids()) cameras[stored] = store_.keyframe(stored).camera;
@@ -689,8 +678,10 @@ bool OnlineMapper::adjustKeyframePoses(int64_t id, DepthProblem* problem) {
   for (const auto& pair : pairs) {
     const auto first = adjusted.poses.find(pair.first), second = adjusted.poses.find(pair.second);
     if (first == adjusted.poses.end() || second == adjusted.poses.end()) continue;
-    refined_poses_.record(pair.first, cameraAt(cameras.at(pair.first), first->second), pair.second,
-                          cameraAt(cameras.at(pair.second), second->second));
+    PinholeCamera reference = cameras.at(pair.first), source = cameras.at(pair.second);
+    setCameraToWorld(first->second, &reference);
+    setCameraToWorld(second->second, &source);
+    refined_poses_.record(pair.first, reference, pair.second, source);
   }
   for (size_t s = 0; s < problem->source_keys.size(); ++s)
     refined_poses_.place(id, problem->reference_camera, problem->source_keys[s], &problem->source_cameras[s]);

@@ -33,9 +33,9 @@ std::string PoseRefinementOptions::validate() const {
           "max_correction_deg", max_correction_deg, "in (0, 180]");
   require(std::isfinite(graph_rotation_sigma_deg) && graph_rotation_sigma_deg > 0, "graph_rotation_sigma_deg",
           graph_rotation_sigma_deg, "finite and > 0");
-  require(max_pose_reestimates >= 0, "max_pose_reestimates", max_pose_reestimates, ">= 0");
   require(std::isfinite(graph_direction_sigma_deg) && graph_direction_sigma_deg > 0, "graph_direction_sigma_deg",
           graph_direction_sigma_deg, "finite and > 0");
+  require(max_pose_reestimates >= 0, "max_pose_reestimates", max_pose_reestimates, ">= 0");
   return why.str();
 }
 

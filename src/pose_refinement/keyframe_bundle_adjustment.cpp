@@ -4,8 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
-#include <string>
 
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "pose_prior_residual.h"
@@ -121,8 +119,7 @@ std::vector<Track> buildTracks(const std::map<int64_t, BundleKeyframe>& keyframe
 }
 
 Eigen::Vector3d rayOf(const PinholeCamera& camera, const Eigen::Vector2d& pixel) {
-  const Eigen::Vector3d in_camera((pixel.x() - camera.cx) / camera.fx, (pixel.y() - camera.cy) / camera.fy, 1.0);
-  return (camera.R.transpose() * in_camera).normalized();
+  return (camera.R.transpose() * camera.backproject(pixel.x(), pixel.y(), 1.0)).normalized();
 }
 
 // The point nearest to the active observations' rays (least squares);
