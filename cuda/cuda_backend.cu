@@ -79,6 +79,8 @@ struct WindowStorage<PaperWindow> {
     return {samples + thread};
   }
 };
+template <>
+struct WindowStorage<RollingShutterWindow<PaperWindow>> : WindowStorage<PaperWindow> {};
 
 template <class Window>
 __global__ void __launch_bounds__(kBlockThreads, AMHMVS_UPDATE_MIN_BLOCKS)
@@ -413,11 +415,9 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
     const GpuSampler sampler{work.reference.get(), width, height, pool.texture()};
     state.uploaded.record(stream);
 
-    if (isPaperWindow(P.cost)) {
-      runPatchMatch<PaperWindow>(P, sampler, pixel_state, options.num_iterations, stream);
-    } else {
-      runPatchMatch<RuntimeWindow>(P, sampler, pixel_state, options.num_iterations, stream);
-    }
+    withWindowType(P, [&](auto window) {
+      runPatchMatch<typename decltype(window)::type>(P, sampler, pixel_state, options.num_iterations, stream);
+    });
     const dim3 block(kBlockX, kBlockY);
     outputKernel<<<gridFor(width, height), block, 0, stream>>>(P, pixel_state, work.raw_depth.get(),
                                                                output.normal.get(), output.cost.get());

@@ -102,6 +102,13 @@ RelativePose relativePose(const PinholeCamera& reference, const PinholeCamera& s
   return rel;
 }
 
+Eigen::Vector3d cameraAngularVelocity(const PinholeCamera& earlier, const PinholeCamera& later, double seconds) {
+  // Camera-to-world rotations are the transposes of PinholeCamera::R:
+  // R_prev^T R in camera-to-world terms (the turn in the camera's own frame).
+  const Eigen::AngleAxisd turn(Eigen::Matrix3d(earlier.R * later.R.transpose()));
+  return turn.angle() * turn.axis() / seconds;
+}
+
 double triangulationAngle(const Eigen::Vector3d& center_a, const Eigen::Vector3d& center_b,
                           const Eigen::Vector3d& point) {
   const Eigen::Vector3d a = (center_a - point).normalized();

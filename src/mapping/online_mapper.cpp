@@ -162,8 +162,16 @@ std::vector<int64_t> OnlineMapper::addSourceView(Keyframe keyframe) {
 void OnlineMapper::rectifyRollingShutter(int64_t id) {
   const RollingShutterOptions& options = options_.rolling_shutter;
   if (!options.enabled()) return;
-  const MotionAnchor previous = motion_anchor_;
   const Keyframe& stored = store_.keyframe(id);
+  if (options.use_tracker_velocity && stored.velocity) {  // no estimate from the previous pose
+    motion_anchor_ = {true, id, stored.stamp, stored.camera, true, estimates_started_};
+    store_.replaceImage(id, amhmvs::rectifyRollingShutter(stored.image, stored.camera, stored.velocity->angular,
+                                                          options.readout_s));
+    if (options.translation) store_.setMotion(id, {stored.velocity->linear, options.readout_s});
+    ++rolling_shutter_rectified_;
+    return;
+  }
+  const MotionAnchor previous = motion_anchor_;
   motion_anchor_ = {true, id, stored.stamp, stored.camera, false, estimates_started_};
   const double interval = stored.stamp - previous.stamp;
   if (!previous.set || !(interval > 0) || interval > options.max_interval_s) {
@@ -333,10 +341,12 @@ void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult
   // Keyframe ids as image keys: a GPU estimator uploads each keyframe once
   // (the pipeline forgets a key when its keyframe leaves the store).
   problem.reference_key = id;
+  problem.reference_motion = store_.entry(id).motion;
   for (int64_t source : sources) {
     problem.source_cameras.push_back(store_.keyframe(source).camera);
     problem.source_images.push_back(store_.entry(source).grayImage());
     problem.source_keys.push_back(source);
+    problem.source_motions.push_back(store_.entry(source).motion);
   }
   problem.depth_min = result->depth_range.min;
   problem.depth_max = result->depth_range.max;
@@ -669,8 +679,12 @@ void OnlineMapper::correctMapPoses() {
 
 bool OnlineMapper::adjustKeyframePoses(int64_t id, DepthProblem* problem) {
   std::map<int64_t, PinholeCamera> cameras;
-  for (int64_t stored : store_.ids()) cameras[stored] = store_.keyframe(stored).camera;
-  const KeyframeBundleAdjustmentResult adjusted = pose_refiner_->adjustKeyframes(cameras);
+  std::map<int64_t, ViewMotion> motions;
+  for (int64_t stored : store_.ids()) {
+    cameras[stored] = store_.keyframe(stored).camera;
+    if (store_.entry(stored).motion.rolling()) motions[stored] = store_.entry(stored).motion;
+  }
+  const KeyframeBundleAdjustmentResult adjusted = pose_refiner_->adjustKeyframes(cameras, motions);
   if (!adjusted.solved) return false;
   // Every refined pair of two adjusted keyframes at their adjusted relative pose.
   std::vector<std::pair<int64_t, int64_t>> pairs;

@@ -17,13 +17,6 @@ std::string RollingShutterOptions::validate() const {
   return out.str();
 }
 
-Eigen::Vector3d cameraAngularVelocity(const PinholeCamera& earlier, const PinholeCamera& later, double seconds) {
-  // Camera-to-world rotations are the transposes of PinholeCamera::R:
-  // R_prev^T R in camera-to-world terms (the turn in the camera's own frame).
-  const Eigen::AngleAxisd turn(Eigen::Matrix3d(earlier.R * later.R.transpose()));
-  return turn.angle() * turn.axis() / seconds;
-}
-
 ImageU8 rectifyRollingShutter(const ImageU8& image, const PinholeCamera& camera, const Eigen::Vector3d& angular_velocity,
                               double readout_s) {
   const double speed = angular_velocity.norm();

@@ -65,11 +65,9 @@ DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams&
   std::vector<uint32_t> selected(pixels);
   std::vector<int8_t> best_view(pixels);
   const PixelState state{planes.data(), costs.data(), selected.data(), best_view.data()};
-  if (isPaperWindow(P.cost)) {
-    runPatchMatch<PaperWindow>(P, sampler, state, options.num_iterations);
-  } else {
-    runPatchMatch<RuntimeWindow>(P, sampler, state, options.num_iterations);
-  }
+  withWindowType(P, [&](auto window) {
+    runPatchMatch<typename decltype(window)::type>(P, sampler, state, options.num_iterations);
+  });
 
   DepthMap out;
   out.backend = Backend::kCpu;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "pose_prior_residual.h"
@@ -14,19 +15,22 @@ namespace {
 template <typename T>
 using Vector3 = Eigen::Matrix<T, 3, 1>;
 
-// (pi(K R'^T (X - c')) - x) / sigma for one observation x.
+// (pi(K (R'^T (X - c') - s)) - x) / sigma for one observation x, s its
+// row's camera centre shift.
 struct ReprojectionResidual {
   Eigen::Matrix3d rotation;  // tracker, camera-to-world
   Eigen::Vector3d centre;    // tracker, world
   double fx, fy, cx, cy;
   Eigen::Vector2d pixel;
+  Eigen::Vector3d row_offset;  // camera frame (rolling shutter; else 0)
   double inverse_sigma;
 
   template <typename T>
   bool operator()(const T* w, const T* dc, const T* point, T* residual) const {
     const Vector3<T> offset(point[0] - (T(centre[0]) + dc[0]), point[1] - (T(centre[1]) + dc[1]),
                             point[2] - (T(centre[2]) + dc[2]));
-    const Vector3<T> in_camera = correctedRotation(w, rotation).transpose() * offset;
+    const Vector3<T> in_camera =
+        correctedRotation(w, rotation).transpose() * offset - row_offset.cast<T>();
     if (!(in_camera[2] > T(0))) return false;  // behind the camera: the step is refused
     residual[0] = (T(fx) * in_camera[0] / in_camera[2] + T(cx) - T(pixel.x())) * T(inverse_sigma);
     residual[1] = (T(fy) * in_camera[1] / in_camera[2] + T(cy) - T(pixel.y())) * T(inverse_sigma);
@@ -130,11 +134,13 @@ bool triangulate(const std::map<int64_t, BundleKeyframe>& keyframes, double min_
   std::vector<Eigen::Vector3d> rays;
   for (const Observation& observation : track->observations) {
     if (!observation.active) continue;
-    const PinholeCamera& camera = keyframes.at(observation.key).camera;
+    const BundleKeyframe& keyframe = keyframes.at(observation.key);
+    const PinholeCamera& camera = keyframe.camera;
     rays.push_back(rayOf(camera, observation.pixel));
     const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - rays.back() * rays.back().transpose();
     normal += across;
-    right += across * camera.center();
+    right += across * (camera.center() +
+                       camera.R.transpose() * keyframe.motion.rowOffset(observation.pixel.y(), camera.height));
   }
   double widest_cos = 1;
   for (size_t i = 0; i < rays.size(); ++i)
@@ -151,8 +157,10 @@ struct Correction {
   double w[3] = {0, 0, 0}, dc[3] = {0, 0, 0};
 };
 
-ReprojectionResidual residualOf(const PinholeCamera& camera, const Eigen::Vector2d& pixel, double inverse_sigma) {
-  return {camera.R.transpose(), camera.center(), camera.fx, camera.fy, camera.cx, camera.cy, pixel, inverse_sigma};
+ReprojectionResidual residualOf(const BundleKeyframe& keyframe, const Eigen::Vector2d& pixel, double inverse_sigma) {
+  const PinholeCamera& camera = keyframe.camera;
+  return {camera.R.transpose(), camera.center(), camera.fx, camera.fy, camera.cx, camera.cy, pixel,
+          keyframe.motion.rowOffset(pixel.y(), camera.height), inverse_sigma};
 }
 
 // Reprojection error in pixels (infinite behind the camera).
@@ -168,8 +176,10 @@ double errorPx(const ReprojectionResidual& residual, const Correction& correctio
 // them, with Huber's.
 enum class Loss { kCauchy, kHuber };
 
+// Keyframes in `held` keep the tracker's pose (their corrections stay 0).
 bool solve(const std::map<int64_t, BundleKeyframe>& keyframes, const KeyframeBundleAdjustmentSettings& settings,
-           Loss loss, std::vector<Track>* tracks, std::map<int64_t, Correction>* corrections) {
+           Loss loss, const std::set<int64_t>& held, std::vector<Track>* tracks,
+           std::map<int64_t, Correction>* corrections) {
   ceres::Problem problem;
   const double inverse_sigma = 1 / settings.feature_sigma_px;
   const double scale = settings.huber_px * inverse_sigma;
@@ -184,13 +194,55 @@ bool solve(const std::map<int64_t, BundleKeyframe>& keyframes, const KeyframeBun
       else
         robust = new ceres::HuberLoss(scale);
       problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 3, 3, 3>(new ReprojectionResidual(
-                                   residualOf(keyframes.at(observation.key).camera, observation.pixel, inverse_sigma))),
+                                   residualOf(keyframes.at(observation.key), observation.pixel, inverse_sigma))),
                                robust, correction.w, correction.dc, track.point.data());
     }
   }
   if (problem.NumResidualBlocks() == 0) return false;
   addPosePriors(settings.prior_rotation_sigma_rad, settings.prior_position_sigma_m, corrections, &problem);
+  for (auto& entry : *corrections) {
+    if (!held.count(entry.first)) continue;
+    problem.SetParameterBlockConstant(entry.second.w);
+    problem.SetParameterBlockConstant(entry.second.dc);
+  }
   return solveProblem(&problem, settings.max_iterations, ceres::SPARSE_SCHUR, ceres::DENSE_SCHUR);
+}
+
+// Squared reprojection errors of a keyframe's active observations: at the
+// tracker's poses (points triangulated there) and after the adjustment.
+struct ErrorSums {
+  double before = 0, after = 0;
+  int count = 0;
+  void add(const ErrorSums& other) {
+    before += other.before;
+    after += other.after;
+    count += other.count;
+  }
+  double rmsBeforePx() const { return std::sqrt(before / std::max(1, count)); }
+  double rmsAfterPx() const { return std::sqrt(after / std::max(1, count)); }
+  double explainedRmsPx() const { return std::sqrt(std::max(0.0, (before - after) / std::max(1, count))); }
+};
+
+std::map<int64_t, ErrorSums> keyframeErrors(const std::map<int64_t, BundleKeyframe>& keyframes,
+                                            const std::vector<Track>& initial, const std::vector<Track>& tracks,
+                                            const std::map<int64_t, Correction>& corrections, double inverse_sigma) {
+  std::map<int64_t, ErrorSums> sums;
+  const Correction none;
+  for (size_t t = 0; t < tracks.size(); ++t) {
+    if (tracks[t].activeCount() < 2) continue;
+    for (const Observation& observation : tracks[t].observations) {
+      if (!observation.active) continue;
+      const ReprojectionResidual residual = residualOf(keyframes.at(observation.key), observation.pixel, inverse_sigma);
+      const auto correction = corrections.find(observation.key);
+      ErrorSums& sum = sums[observation.key];
+      sum.before += std::pow(std::min(errorPx(residual, none, initial[t].point), 1e3), 2);
+      sum.after += std::pow(
+          std::min(errorPx(residual, correction != corrections.end() ? correction->second : none, tracks[t].point), 1e3),
+          2);
+      ++sum.count;
+    }
+  }
+  return sums;
 }
 
 }  // namespace
@@ -206,7 +258,7 @@ KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, BundleKey
     if (triangulate(keyframes, settings.min_ray_angle_rad, &track)) tracks.push_back(std::move(track));
   }
   std::map<int64_t, Correction> corrections;
-  if (!solve(keyframes, settings, Loss::kCauchy, &tracks, &corrections)) return result;
+  if (!solve(keyframes, settings, Loss::kCauchy, {}, &tracks, &corrections)) return result;
   // Observations far off after the first solve are mismatches: out, and
   // with them tracks left shorter than min_final_track_length; the second
   // solve starts from the tracker's poses and points triangulated there from
@@ -215,7 +267,7 @@ KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, BundleKey
   for (Track& track : tracks) {
     for (Observation& observation : track.observations) {
       const ReprojectionResidual residual =
-          residualOf(keyframes.at(observation.key).camera, observation.pixel, inverse_sigma);
+          residualOf(keyframes.at(observation.key), observation.pixel, inverse_sigma);
       if (observation.active && errorPx(residual, corrections[observation.key], track.point) > 2 * settings.huber_px)
         observation.active = false;
     }
@@ -225,24 +277,33 @@ KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, BundleKey
   }
   const std::vector<Track> initial = tracks;
   corrections.clear();
-  if (!solve(keyframes, settings, Loss::kHuber, &tracks, &corrections)) return result;
-  result.solved = true;
-  double before = 0, after = 0;
-  const Correction none;
-  for (size_t t = 0; t < tracks.size(); ++t) {
-    if (tracks[t].activeCount() < 2) continue;
-    ++result.tracks;
-    for (const Observation& observation : tracks[t].observations) {
-      if (!observation.active) continue;
-      const ReprojectionResidual residual =
-          residualOf(keyframes.at(observation.key).camera, observation.pixel, inverse_sigma);
-      before += std::pow(std::min(errorPx(residual, none, initial[t].point), 1e3), 2);
-      after += std::pow(std::min(errorPx(residual, corrections.at(observation.key), tracks[t].point), 1e3), 2);
-      ++result.observations;
-    }
+  if (!solve(keyframes, settings, Loss::kHuber, {}, &tracks, &corrections)) return result;
+  // A keyframe whose pose the adjustment explains less than
+  // min_explained_rms_px of its features' error with is confirmed: the
+  // features agree with the tracker there, and moving it would only fit
+  // their noise (with exact poses this cost the realism map 15 points).
+  // The others are solved again with the confirmed ones held.
+  std::map<int64_t, ErrorSums> sums = keyframeErrors(keyframes, initial, tracks, corrections, inverse_sigma);
+  std::set<int64_t> confirmed;
+  for (const auto& entry : sums)
+    if (entry.second.explainedRmsPx() < settings.min_explained_rms_px) confirmed.insert(entry.first);
+  if (!confirmed.empty()) {
+    tracks = initial;
+    for (auto& entry : corrections) entry.second = Correction();
+    if (confirmed.size() < corrections.size() &&
+        !solve(keyframes, settings, Loss::kHuber, confirmed, &tracks, &corrections))
+      return result;
+    if (confirmed.size() == corrections.size()) tracks = initial;
+    sums = keyframeErrors(keyframes, initial, tracks, corrections, inverse_sigma);
   }
-  result.rms_before_px = std::sqrt(before / std::max(1, result.observations));
-  result.rms_after_px = std::sqrt(after / std::max(1, result.observations));
+  result.solved = true;
+  result.confirmed = static_cast<int>(confirmed.size());
+  ErrorSums all;
+  for (const auto& entry : sums) all.add(entry.second);
+  for (const Track& track : tracks) result.tracks += track.activeCount() >= 2;
+  result.observations = all.count;
+  result.rms_before_px = all.rmsBeforePx();
+  result.rms_after_px = all.rmsAfterPx();
   for (const auto& entry : corrections)
     result.poses[entry.first] =
         correctedPose(cameraToWorld(keyframes.at(entry.first).camera), entry.second.w, entry.second.dc);

@@ -110,7 +110,8 @@ class PoseRefiner::Impl {
   explicit Impl(const PoseRefinementOptions& options) : options_(options) {}
 
   PoseRefinementResult refine(DepthProblem* problem);
-  KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras) const;
+  KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras,
+                                                 const std::map<int64_t, ViewMotion>& motions) const;
   void forget(int64_t key);
   void forgetAll() {
     cache_.clear();
@@ -138,16 +139,20 @@ void PoseRefiner::Impl::forget(int64_t key) {
 }
 
 KeyframeBundleAdjustmentResult PoseRefiner::Impl::adjustKeyframes(
-    const std::map<int64_t, PinholeCamera>& cameras) const {
+    const std::map<int64_t, PinholeCamera>& cameras, const std::map<int64_t, ViewMotion>& motions) const {
   std::map<int64_t, BundleKeyframe> keyframes;
   for (const auto& entry : cameras) {
     const auto features = cache_.find(entry.first);
-    if (features != cache_.end()) keyframes[entry.first] = {entry.second, features->second->pixels};
+    if (features == cache_.end()) continue;
+    const auto motion = motions.find(entry.first);
+    keyframes[entry.first] = {entry.second, features->second->pixels,
+                              motion != motions.end() ? motion->second : ViewMotion()};
   }
   std::vector<KeyframeFeatureMatches> matches;
   for (const auto& pair : pair_matches_) matches.push_back({pair.first.first, pair.first.second, pair.second});
   KeyframeBundleAdjustmentSettings settings;
   copyAdjustmentSettings(options_, &settings);
+  settings.min_explained_rms_px = options_.min_explained_rms_px;
   return amhmvs::adjustKeyframes(keyframes, matches, settings);
 }
 
@@ -273,8 +278,9 @@ PoseRefiner::PoseRefiner(const PoseRefinementOptions& options) : options_(option
 PoseRefiner::~PoseRefiner() = default;
 
 PoseRefinementResult PoseRefiner::refine(DepthProblem* problem) { return impl_->refine(problem); }
-KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras) const {
-  return impl_->adjustKeyframes(cameras);
+KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras,
+                                                            const std::map<int64_t, ViewMotion>& motions) const {
+  return impl_->adjustKeyframes(cameras, motions);
 }
 void PoseRefiner::forget(int64_t key) { impl_->forget(key); }
 void PoseRefiner::forgetAll() { impl_->forgetAll(); }

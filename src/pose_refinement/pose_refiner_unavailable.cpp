@@ -22,7 +22,8 @@ PoseRefinementResult PoseRefiner::refine(DepthProblem*) {
   return result;
 }
 
-KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64_t, PinholeCamera>&) const {
+KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64_t, PinholeCamera>&,
+                                                            const std::map<int64_t, ViewMotion>&) const {
   return {};
 }
 

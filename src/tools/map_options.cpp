@@ -43,6 +43,9 @@ bool setFusionOption(const std::string& name, const std::string& value, OnlineMa
     mapper->confidence.again_with_more_views = parseSwitch(name, value);
   else if (name == "fuse_neighbours_again") mapper->refinement.fuse_neighbours_again = parseSwitch(name, value);
   else if (name == "rolling_shutter_s") mapper->rolling_shutter.readout_s = parseValue<double>(name, value);
+  else if (name == "rolling_shutter_velocity")
+    mapper->rolling_shutter.use_tracker_velocity = parseSwitch(name, value);
+  else if (name == "rolling_shutter_translation") mapper->rolling_shutter.translation = parseSwitch(name, value);
   else if (name == "rolling_shutter_max_interval_s")
     mapper->rolling_shutter.max_interval_s = parseValue<double>(name, value);
   else return false;
@@ -63,7 +66,7 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     nextOption(arguments, &i,
                {"quiet", "write_depth", "write_previews", "write_clouds", "write_confidence", "skip_to_newest",
                 "confidence", "confidence_again_with_more_views", "fuse_neighbours_again", "pose_refinement", "start_from_neighbours",
-                "geometric_refinement"},
+                "geometric_refinement", "rolling_shutter_velocity", "rolling_shutter_translation"},
                &name, &value);
     if (name == "quiet") options.quiet = parseSwitch(name, value);
     else if (name == "write_depth") options.write_depth = parseSwitch(name, value);
@@ -217,6 +220,11 @@ std::string mapToolUsage() {
          "                       (angular velocity from the poses of the keyframe before it,\n"
          "                       at most --rolling_shutter_max_interval_s before, default 1;\n"
          "                       stamps: --frame_period) (default 0: global shutter)\n"
+         "  --rolling_shutter_velocity[=0|1]  use the tracker's velocities where the recording\n"
+         "                       has them (MVSNet velocities.txt): their turn rate for the\n"
+         "                       rectification and, with --rolling_shutter_translation (default\n"
+         "                       1), each row's camera centre in the matching cost and the\n"
+         "                       keyframe bundle adjustment (default 0)\n"
          "  --queue_size N       keyframes waiting (default: all offline, 4 with --realtime)\n"
          "  --skip_to_newest[=0|1]  after a queue overflow take the newest keyframe (default 1)\n"
          "Pose refinement (before stereo; depth, clouds and map stay in the tracker's frame):\n"

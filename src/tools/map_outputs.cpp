@@ -11,6 +11,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/eval/cloud_metrics.h"
 #include "amhmvs_mapping/eval/ground_truth_depth.h"
+#include "amhmvs_mapping/eval/pose_alignment.h"
 #include "amhmvs_mapping/io/depth_preview.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/pfm.h"
@@ -362,6 +363,7 @@ bool MapOutputs::compareWithTruth(const KeyframeResult& result, const PosedFrame
     if (frame->true_camera) {
       tracker_placed_truth_[result.id] = backprojectDepthMaps({truth}, stride);
       tracker_poses_[result.id] = cameraToWorld(result.camera);
+      true_poses_[result.id] = cameraToWorld(*frame->true_camera);
     }
   }
   return true;
@@ -423,9 +425,16 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   const bool map_poses_corrected =
       refinement.enabled && (refinement.correct_map_poses || refinement.keyframe_bundle_adjustment);
   std::vector<Eigen::Vector3f> map_placed_truth;
+  // Where true poses are known: the map's keyframe poses and those.
+  std::vector<Eigen::Isometry3d> map_poses, true_poses;
   pipeline.withMapper([&](const OnlineMapper& mapper) {
     writeMap(dir_ + "/map.ply", mapper.map());
     map_points = mapper.map().exportCloud().points;
+    for (const auto& entry : true_poses_) {
+      if (!mapper.map().contains(entry.first)) continue;
+      map_poses.push_back(mapper.map().pose(entry.first));
+      true_poses.push_back(entry.second);
+    }
     if (!map_poses_corrected) return;
     for (const auto& entry : tracker_placed_truth_) {
       if (!mapper.map().contains(entry.first)) continue;
@@ -546,6 +555,19 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
       map_bound_within_pct = withinPct(map_placed_truth);
       addWithinFields(map_bound_within_pct, &map_bound_fields);
       map.add("exact_depth_at_map_poses", map_bound_fields.object());
+    }
+    if (map_poses.size() >= 2) {
+      // The map after the one similarity from its keyframe poses to the true
+      // ones: its shape apart from the tracker's gauge (eval/pose_alignment.h).
+      const PoseAlignment alignment = alignPoses(map_poses, true_poses);
+      std::vector<Eigen::Vector3f> aligned;
+      aligned.reserve(map_points.size());
+      for (const Eigen::Vector3f& point : map_points) aligned.push_back(alignment.apply(point));
+      JsonFields aligned_fields;
+      addWithinFields(withinPct(aligned), &aligned_fields);
+      aligned_fields.add("scale", number(alignment.scale));
+      aligned_fields.add("rotation_deg", number(Eigen::AngleAxisd(alignment.rotation).angle() * 180 / M_PI));
+      map.add("after_similarity_to_true_poses", aligned_fields.object());
     }
   }
   summary.add("map", map.object());

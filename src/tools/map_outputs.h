@@ -79,6 +79,7 @@ class MapOutputs {
   // a perfect map).
   std::map<int64_t, std::vector<Eigen::Vector3f>> tracker_placed_truth_;
   std::map<int64_t, Eigen::Isometry3d> tracker_poses_;  // camera-to-world, of those
+  std::map<int64_t, Eigen::Isometry3d> true_poses_;     // camera-to-world, of those
   std::vector<double> total_ms_, estimate_ms_;
   std::vector<double> pose_refinement_ms_;          // results whose poses were refined
   std::map<std::string, size_t> pose_outcomes_;     // sources by SourcePoseOutcome name

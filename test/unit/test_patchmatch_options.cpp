@@ -367,6 +367,21 @@ TEST(DepthProblemValidate, SourceCount) {
   expectRefused(p, "31 source keys for 32 source views");
 }
 
+TEST(DepthProblemValidate, RollingShutterMotions) {
+  DepthProblem p = goodProblem();
+  p.reference_motion = {Eigen::Vector3d(0.1, 0, 0), 0.03};
+  p.source_motions = {ViewMotion(), {Eigen::Vector3d(0, 0.2, 0), 0.03}};
+  EXPECT_EQ(p.validate(), "");
+  p.source_motions.pop_back();
+  expectRefused(p, "1 source motions for 2 source views");
+  p = goodProblem();
+  p.reference_motion.velocity.x() = std::numeric_limits<double>::quiet_NaN();
+  expectRefused(p, "reference view", "finite velocity");
+  p = goodProblem();
+  p.source_motions = {ViewMotion(), {Eigen::Vector3d(0, 0.2, 0), 1.5}};
+  expectRefused(p, "source view 1", "readout in [0, 1] s");
+}
+
 TEST(DepthProblemValidate, DepthRange) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double ranges[][2] = {{5, 5}, {10, 1}, {nan, 10}, {1, nan}, {0, 10}, {-1, 10}};

@@ -132,6 +132,49 @@ TEST(RollingShutter, OnlineMapperRectifiesWithTheMotionFromTheKeyframeBefore) {
   EXPECT_EQ(mapper.rollingShutterNotRectified(), 1u);
 }
 
+// With the tracker's velocity a keyframe needs nothing from the one before:
+// its own turn rate rectifies it, and its linear velocity becomes the motion
+// the matching cost sees each row from (unless translation is off).
+TEST(RollingShutter, OnlineMapperUsesTheTrackersVelocityWhenGiven) {
+  OnlineMapperOptions options = test::wallOptions();
+  options.rolling_shutter.readout_s = 0.05;
+  options.rolling_shutter.use_tracker_velocity = true;
+  OnlineMapper mapper(options, test::wallDepth);
+  Keyframe k0 = texturedKeyframe(0, 0.0, 0.0, 0);
+  CameraVelocity velocity;
+  velocity.angular = Eigen::Vector3d(0.2, -0.4, 0.1);
+  velocity.linear = Eigen::Vector3d(0.3, 0, 0.1);
+  k0.velocity = velocity;
+  mapper.process(k0);
+  EXPECT_EQ(mapper.store().keyframe(0).image.data,
+            rectifyRollingShutter(k0.image, k0.camera, velocity.angular, 0.05).data);
+  EXPECT_EQ(mapper.rollingShutterRectified(), 1u);
+  EXPECT_EQ(mapper.rollingShutterNotRectified(), 0u);
+  EXPECT_EQ(mapper.store().entry(0).motion.velocity, velocity.linear);
+  EXPECT_EQ(mapper.store().entry(0).motion.readout_s, 0.05);
+  // A keyframe without one: rectified from the poses, rotation only.
+  mapper.process(texturedKeyframe(1, 0.5, 0.3, 4));
+  EXPECT_FALSE(mapper.store().entry(1).motion.rolling());
+  EXPECT_EQ(mapper.rollingShutterRectified(), 2u);
+  // Translation off: the turn is still taken from the velocity, no motion kept.
+  options.rolling_shutter.translation = false;
+  OnlineMapper rotation_only(options, test::wallDepth);
+  rotation_only.process(k0);
+  EXPECT_EQ(rotation_only.store().keyframe(0).image.data, mapper.store().keyframe(0).image.data);
+  EXPECT_FALSE(rotation_only.store().entry(0).motion.rolling());
+  // Not asked for (the default): the velocity is ignored, the first keyframe waits for the second's motion.
+  options.rolling_shutter.use_tracker_velocity = false;
+  OnlineMapper ignoring(options, test::wallDepth);
+  ignoring.process(k0);
+  EXPECT_EQ(ignoring.store().keyframe(0).image.data, k0.image.data);
+  EXPECT_EQ(ignoring.rollingShutterNotRectified(), 1u);
+  // A velocity that is not finite is refused with the keyframe.
+  Keyframe bad = texturedKeyframe(2, 1.0, 0.6, 8);
+  bad.velocity = velocity;
+  bad.velocity->linear.y() = NAN;
+  EXPECT_EQ(bad.validate(), "velocity is not finite");
+}
+
 TEST(RollingShutter, InvalidOptionsAreRefusedWithTheirNames) {
   RollingShutterOptions options;
   options.readout_s = -0.01;

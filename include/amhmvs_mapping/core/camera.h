@@ -10,6 +10,31 @@
 
 namespace amhmvs {
 
+// A camera's velocity at an instant, in its own (optical) frame: angular in
+// rad/s, linear (of the centre) in m/s.
+struct CameraVelocity {
+  Eigen::Vector3d angular = Eigen::Vector3d::Zero();
+  Eigen::Vector3d linear = Eigen::Vector3d::Zero();
+  bool finite() const { return angular.allFinite() && linear.allFinite(); }
+};
+
+// A rolling-shutter view's motion during its readout: its camera centre at
+// row y is the middle row's moved by tau(y) velocity, tau(y) = readout_s
+// (y / (height - 1) - 1/2). The images come with the rotation during the
+// readout rectified (mapping/rolling_shutter.h); the matching cost
+// (mvs/matching_cost.h, rowCentreHomography) and the keyframe bundle
+// adjustment account for the translation.
+struct ViewMotion {
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  // the view's own camera frame, m/s
+  double readout_s = 0;                                // first row to last; 0: a global shutter
+  bool rolling() const { return readout_s > 0 && velocity.squaredNorm() > 0; }
+  // Row y's camera centre minus the middle row's, in the camera frame.
+  Eigen::Vector3d rowOffset(double row, int height) const {
+    if (!rolling() || height < 2) return Eigen::Vector3d::Zero();
+    return readout_s * (row / (height - 1) - 0.5) * velocity;
+  }
+};
+
 struct PinholeCamera {
   double fx = 0, fy = 0, cx = 0, cy = 0;
   int width = 0, height = 0;
@@ -64,6 +89,10 @@ struct RelativePose {
   Eigen::Vector3d t;
 };
 RelativePose relativePose(const PinholeCamera& reference, const PinholeCamera& source);
+
+// The mean angular velocity in the later camera's frame (rad/s) of a camera
+// that moved from `earlier` to `later` in `seconds` (> 0).
+Eigen::Vector3d cameraAngularVelocity(const PinholeCamera& earlier, const PinholeCamera& later, double seconds);
 
 // Angle in radians between the rays from two camera centres to a world point.
 double triangulationAngle(const Eigen::Vector3d& center_a, const Eigen::Vector3d& center_b,

@@ -11,8 +11,10 @@
 //   unknowns  per keyframe a correction of its camera-to-world pose,
 //             R' = Exp(w) R, c' = c + dc (as the pose graph's), and per
 //             track a world point X;
-//   residuals (pi(K R'^T (X - c')) - x) / feature_sigma for every
-//             observation x of a track (Cauchy's loss at huber_px in the
+//   residuals (pi(K (R'^T (X - c') - s(x))) - x) / feature_sigma for
+//             every observation x of a track, s(x) the rolling shutter's
+//             shift of x's row (ViewMotion::rowOffset; 0 for a global
+//             shutter) (Cauchy's loss at huber_px in the
 //             first solve, Huber's in the second), and the
 //             tracker's noise as a prior on every correction:
 //             w / prior_rotation_sigma, dc / prior_position_sigma (the
@@ -23,7 +25,9 @@
 // less than min_ray_angle is left out; after a first solve the observations
 // off by more than 2 huber_px leave (and tracks shorter than
 // min_final_track_length), the tracks are triangulated again from the rest
-// and all is solved again from the tracker's poses.
+// and all is solved again from the tracker's poses. Keyframes whose
+// features the solve explains less than min_explained_rms_px of their error
+// with keep the tracker's pose, and the rest is solved once more.
 // Builds without Ceres return no poses (keyframeBundleAdjustmentAvailable()).
 #pragma once
 
@@ -48,14 +52,20 @@ struct KeyframeBundleAdjustmentSettings {
   // two-view track fits anyway along the epipolar line and bends the poses
   // (unit test, 20 % wrong matches: 0.2-0.5 deg with 2, 0.05-0.2 with 3).
   int min_final_track_length = 3;
+  // A keyframe keeps the tracker's pose (confirmed) when the adjustment
+  // explains less than this of its features' reprojection error,
+  // sqrt(RMS before^2 - RMS after^2) (the star refinement's rule).
+  double min_explained_rms_px = 0.25;
   int max_iterations = 50;
 };
 
-// A keyframe: its camera at the tracker's pose and its features' pixels
-// (index = feature number of the matches).
+// A keyframe: its camera at the tracker's pose, its features' pixels
+// (index = feature number of the matches) and, for a rolling shutter whose
+// velocity is known, its motion during the readout.
 struct BundleKeyframe {
   PinholeCamera camera;
   std::vector<Eigen::Vector2d> pixels;
+  ViewMotion motion;
 };
 
 // Matched features of two keyframes: (feature of `first`, feature of `second`).
@@ -69,6 +79,7 @@ struct KeyframeBundleAdjustmentResult {
   // Corrected camera-to-world poses of the keyframes that observe a track.
   std::map<int64_t, Eigen::Isometry3d> poses;
   int tracks = 0;        // in the final solve
+  int confirmed = 0;     // keyframes held at the tracker's pose (min_explained_rms_px)
   int observations = 0;  // in the final solve
   double rms_before_px = 0;  // of those observations: at the tracker's poses (points triangulated there)
   double rms_after_px = 0;   // after the adjustment

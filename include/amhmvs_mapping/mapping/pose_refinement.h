@@ -171,8 +171,10 @@ class PoseRefiner {
   // The bundle adjustment of all keyframes (keyframe_bundle_adjustment.h)
   // over the cached features and the matches of every refined or confirmed
   // pair since their keys were cached; `cameras` are the keyframes at the
-  // tracker's poses, by image key (others are left out).
-  KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras) const;
+  // tracker's poses, by image key (others are left out); `motions`, by the
+  // same keys, the rolling shutters whose velocity is known (none: global).
+  KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras,
+                                                 const std::map<int64_t, ViewMotion>& motions = {}) const;
 
   // Drops the cached features and matches of an image key (its keyframe left the store).
   void forget(int64_t key);

@@ -55,6 +55,26 @@ struct PatchMatchParams {
   float unscored_cost;  // a pixel's cost at or above this: nothing could be scored
 };
 
+// Calls run(WindowType<W>()) with W the window shape of P's cost options
+// (the paper's, compiled in, or any at run time), as its rolling-shutter
+// variant when a source view or the reference moves during its readout.
+template <class Window>
+struct WindowType {
+  using type = Window;
+};
+template <class Run>
+void withWindowType(const PatchMatchParams& P, Run&& run) {
+  bool rolling = false;
+  for (int j = 0; j < P.num_sources; ++j) rolling |= P.sources[j].rows.rolling;
+  if (isPaperWindow(P.cost)) {
+    if (rolling) run(WindowType<RollingShutterWindow<PaperWindow>>());
+    else run(WindowType<PaperWindow>());
+  } else {
+    if (rolling) run(WindowType<RollingShutterWindow<RuntimeWindow>>());
+    else run(WindowType<RuntimeWindow>());
+  }
+}
+
 // Per-pixel state in structure-of-arrays form (device or host pointers).
 struct PixelState {
   Plane* plane;
