@@ -90,8 +90,14 @@ struct SampledProblem {
   std::vector<std::unique_ptr<PaddedImage8>> padded;
   CpuSampler sampler{};
 
-  SampledProblem(int width, int height, int sources)
+  // rolling: every view a rolling shutter in motion (RowMotion).
+  SampledProblem(int width, int height, int sources, bool rolling = false)
       : problem(makeSyntheticProblem(width, height, sources, 5)) {
+    if (rolling) {
+      problem.problem.reference_motion = {Eigen::Vector3d(0.8, -0.3, 0.4), 0.03};
+      for (int j = 0; j < sources; ++j)
+        problem.problem.source_motions.push_back({Eigen::Vector3d(j % 2 ? 0.6 : -0.5, 0.4, 0.2), 0.03});
+    }
     params = makePatchMatchParams(PatchMatchOptions(), problem.problem);
     sampler.reference_image = problem.problem.reference_image;
     for (int j = 0; j < params.num_sources; ++j) {
@@ -101,10 +107,10 @@ struct SampledProblem {
   }
 };
 
-TEST(CpuLanes, BatchedCostsEqualScalarMatchingCosts) {
-  // 6 sources: batches of 4 lanes end part-filled; some planes face away or
-  // map the window outside a source, some windows are flat.
-  SampledProblem s(96, 72, 6);
+// 6 sources: batches of 4 lanes end part-filled; some planes face away or
+// map the window outside a source, some windows are flat.
+template <class Window>
+void expectBatchedCostsEqualScalar(const SampledProblem& s) {
   const PatchMatchParams& P = s.params;
   std::mt19937 rng(21);
   std::uniform_int_distribution<int> px(0, P.width - 1), py(0, P.height - 1), count(1, 19);
@@ -113,12 +119,12 @@ TEST(CpuLanes, BatchedCostsEqualScalarMatchingCosts) {
   for (int trial = 0; trial < 400; ++trial) {
     const int x = px(rng), y = py(rng);
     ReferenceWindow win;
-    computeReferenceWindow<PaperWindow>(s.sampler, P.cost, x, y, &win);
+    computeReferenceWindow<Window>(s.sampler, P.cost, x, y, &win);
     const int n = count(rng);
     std::vector<Vec3> q(n);
     std::vector<int> view(n);
     std::vector<float> got(n, -1.0f);
-    CostBatch<PaperWindow, CpuSampler, InlineSamples> batch(s.sampler, P.cost, win, x, y);
+    CostBatch<Window, CpuSampler, InlineSamples> batch(s.sampler, P.cost, win, x, y);
     for (int k = 0; k < n; ++k) {
       const Vec3 normal = normalized(make_vec3(unit(rng), unit(rng), -1.5f + unit(rng)));
       const Vec3 ray = pixelRay(P.K, static_cast<float>(x), static_cast<float>(y));
@@ -128,7 +134,7 @@ TEST(CpuLanes, BatchedCostsEqualScalarMatchingCosts) {
     }
     batch.flush();
     for (int k = 0; k < n; ++k, ++compared) {
-      const float want = matchingCost<PaperWindow>(s.sampler, P.cost, win, P.sources[view[k]],
+      const float want = matchingCost<Window>(s.sampler, P.cost, win, P.sources[view[k]],
                                                    q[k], x, y);
       max_cost += want == kMaxCost;
       if (!sameBits(got[k], want) && ++mismatches <= 5) {
@@ -141,6 +147,14 @@ TEST(CpuLanes, BatchedCostsEqualScalarMatchingCosts) {
   EXPECT_GT(compared, 2000);
   EXPECT_GT(max_cost, 20);               // the kMaxCost branches were taken
   EXPECT_LT(max_cost, compared * 3 / 4);  // and most costs were real scores
+}
+
+TEST(CpuLanes, BatchedCostsEqualScalarMatchingCosts) {
+  expectBatchedCostsEqualScalar<PaperWindow>(SampledProblem(96, 72, 6));
+  // Rolling shutters: each lane's homography with its pixel row's centres.
+  const SampledProblem rolling(96, 72, 6, true);
+  ASSERT_TRUE(rolling.params.sources[0].rows.rolling);
+  expectBatchedCostsEqualScalar<RollingShutterWindow<PaperWindow>>(rolling);
 }
 
 // The CPU sampler scoring one cost at a time, as the scalar code did.
