@@ -20,16 +20,30 @@
 namespace amhmvs {
 namespace fuzz {
 
-// A folder of this process under $TMPDIR (or /tmp), created once.
-inline const std::string& scratchDir() {
-  static const std::string dir = [] {
+// A folder of this process under $TMPDIR (or /tmp), created once and
+// removed when the process exits (every run used to leave one behind).
+class ScratchDir {
+ public:
+  ScratchDir() {
     const char* tmp = std::getenv("TMPDIR");
-    const std::string path = std::string(tmp ? tmp : "/tmp") + "/amhmvs_fuzz_" +
-                             std::to_string(static_cast<long>(getpid()));
-    std::filesystem::create_directories(path);
-    return path;
-  }();
-  return dir;
+    path_ = std::string(tmp ? tmp : "/tmp") + "/amhmvs_fuzz_" + std::to_string(static_cast<long>(getpid()));
+    std::filesystem::create_directories(path_);
+  }
+  ~ScratchDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+inline const std::string& scratchDir() {
+  static const ScratchDir dir;
+  return dir.path();
 }
 
 // Writes bytes to scratchDir()/name (creating parent folders) and returns the path.
