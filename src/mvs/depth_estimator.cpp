@@ -173,13 +173,10 @@ RowMotion rowMotion(const DepthProblem& problem, int source, const Eigen::Matrix
   if (!m.rolling) return m;
   const PinholeCamera& ref_camera = problem.reference_camera;
   const PinholeCamera& src_camera = problem.source_cameras[source];
-  const auto row_time = [](const ViewMotion& motion, int height, float* a, float* c) {
-    const bool moving = motion.rolling() && height > 1;
-    *a = moving ? static_cast<float>(motion.readout_s / (height - 1)) : 0.0f;
-    *c = moving ? static_cast<float>(-0.5 * motion.readout_s) : 0.0f;
-  };
-  row_time(ref, ref_camera.height, &m.ref_row_a, &m.ref_row_c);
-  row_time(src, src_camera.height, &m.source_row_a, &m.source_row_c);
+  m.ref_row_a = static_cast<float>(ref.rowTimeSlope(ref_camera.height));
+  m.ref_row_c = static_cast<float>(ref.rowTimeAtTop(ref_camera.height));
+  m.source_row_a = static_cast<float>(src.rowTimeSlope(src_camera.height));
+  m.source_row_c = static_cast<float>(src.rowTimeAtTop(src_camera.height));
   m.ref_velocity = toVec3(ref_camera.K() * ref.velocity);
   m.ref_velocity_in_source = toVec3(src_camera.K() * reference_to_source * ref.velocity);
   m.source_velocity = toVec3(src_camera.K() * src.velocity);

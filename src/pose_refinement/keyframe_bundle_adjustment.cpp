@@ -293,7 +293,6 @@ KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, BundleKey
     if (confirmed.size() < corrections.size() &&
         !solve(keyframes, settings, Loss::kHuber, confirmed, &tracks, &corrections))
       return result;
-    if (confirmed.size() == corrections.size()) tracks = initial;
     sums = keyframeErrors(keyframes, initial, tracks, corrections, inverse_sigma);
   }
   result.solved = true;

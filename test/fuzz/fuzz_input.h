@@ -4,8 +4,6 @@
 // exception, a crash, a sanitizer report or a leak is a finding.
 #pragma once
 
-#include <unistd.h>
-
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -16,43 +14,21 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/error.h"
+#include "../common/temp_dir.h"
 
 namespace amhmvs {
 namespace fuzz {
 
-// A folder of this process under $TMPDIR (or /tmp), created once and
-// removed when the process exits (every run used to leave one behind).
-class ScratchDir {
- public:
-  ScratchDir() {
-    const char* tmp = std::getenv("TMPDIR");
-    path_ = std::string(tmp ? tmp : "/tmp") + "/amhmvs_fuzz_" + std::to_string(static_cast<long>(getpid()));
-    std::filesystem::create_directories(path_);
-  }
-  ~ScratchDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
-
-inline const std::string& scratchDir() {
-  static const ScratchDir dir;
+// This process's scratch folder, created once and removed when it exits
+// (every run used to leave one behind).
+inline std::string scratchDir() {
+  static const test::TempDir dir("amhmvs_fuzz_");
   return dir.path();
 }
 
 // Writes bytes to scratchDir()/name (creating parent folders) and returns the path.
 inline std::string writeScratch(const std::string& name, const uint8_t* data, size_t size) {
-  const std::string path = scratchDir() + "/" + name;
-  std::filesystem::create_directories(std::filesystem::path(path).parent_path());
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
-  return path;
+  return test::TempDir::writeTo(scratchDir() + "/" + name, std::string(reinterpret_cast<const char*>(data), size));
 }
 
 // Splits an input into `parts` pieces at the separator line "\n--8<--\n"

@@ -16,6 +16,7 @@
 
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
+#include "../common/temp_dir.h"
 
 namespace amhmvs {
 namespace test {
@@ -47,43 +48,6 @@ inline std::string dataPath(const std::string& relative) {
   const std::string path = dataDir() + "/" + relative;
   return std::filesystem::exists(path) ? path : "";
 }
-
-// A fresh folder under the system temp dir, removed with its content.
-class TempDir {
- public:
-  TempDir() {
-    std::random_device rd;
-    path_ = std::filesystem::temp_directory_path() /
-            ("amhmvs_test_" + std::to_string(rd()) + "_" + std::to_string(rd()));
-    std::filesystem::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-
-  std::string path() const { return path_.string(); }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
-  // Writes `content` to `name` (creating parent folders) and returns its path.
-  std::string write(const std::string& name, const std::string& content) const {
-    return writeTo((path_ / name).string(), content);
-  }
-
-  // Writes `content` to an absolute path (creating parent folders).
-  static std::string writeTo(const std::string& path, const std::string& content) {
-    const std::filesystem::path p(path);
-    std::filesystem::create_directories(p.parent_path());
-    std::ofstream out(p, std::ios::binary | std::ios::trunc);
-    out << content;
-    return p.string();
-  }
-
- private:
-  std::filesystem::path path_;
-};
 
 struct CommandResult {
   int exit_code;

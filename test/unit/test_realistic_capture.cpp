@@ -136,27 +136,30 @@ TEST(RealisticCapture, NoEffectIsThePlainRenderBitForBit) {
   }
 }
 
+// Each axis of `field` over the draws is zero-mean noise of std dev `sigma`,
+// independent from one frame to the next (jitter, not drift). With 4000
+// draws the sample std dev is within 1.1 % (1 sigma) of the true one.
+void expectWhiteNoise(const std::vector<FrameDisturbance>& draws, double sigma, const char* name,
+                      const std::function<Eigen::Vector3d(const FrameDisturbance&)>& field) {
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> values;
+    for (const FrameDisturbance& f : draws) values.push_back(field(f)[axis]);
+    const Stats s = stats(values);
+    EXPECT_NEAR(s.sd, sigma, sigma * 0.05) << name << ", axis " << axis;
+    EXPECT_NEAR(s.mean, 0, 4 * sigma / std::sqrt(values.size())) << name << ", axis " << axis;
+    EXPECT_LT(std::abs(lagOneCorrelation(values)), 0.07) << name << ", axis " << axis;
+  }
+}
+
 TEST(RealisticCapture, PoseNoiseHasTheStatisticsOfTheOptions) {
   RealismOptions options;
   options.pose_noise_m = 0.02;
   options.pose_noise_deg = 0.5;
   const int frames = 4000;
   const std::vector<FrameDisturbance> d = drawFrameDisturbances(options, frames, 0.1);
-  for (int axis = 0; axis < 3; ++axis) {
-    std::vector<double> position, rotation_deg;
-    for (const FrameDisturbance& f : d) {
-      position.push_back(f.position_error[axis]);
-      rotation_deg.push_back(rotationVector(f.rotation_error)[axis] * kRadToDeg);
-    }
-    const Stats p = stats(position), r = stats(rotation_deg);
-    // 4000 draws: the sample std dev is within 1.1 % (1 sigma) of the true one.
-    EXPECT_NEAR(p.sd, 0.02, 0.02 * 0.05) << "axis " << axis;
-    EXPECT_NEAR(r.sd, 0.5, 0.5 * 0.05) << "axis " << axis;
-    EXPECT_NEAR(p.mean, 0, 4 * 0.02 / std::sqrt(frames)) << "axis " << axis;
-    EXPECT_NEAR(r.mean, 0, 4 * 0.5 / std::sqrt(frames)) << "axis " << axis;
-    // Jitter: independent from one frame to the next.
-    EXPECT_LT(std::abs(lagOneCorrelation(position)), 0.07) << "axis " << axis;
-  }
+  expectWhiteNoise(d, 0.02, "position", [](const FrameDisturbance& f) { return f.position_error; });
+  expectWhiteNoise(d, 0.5, "rotation (deg)",
+                   [](const FrameDisturbance& f) { return Eigen::Vector3d(rotationVector(f.rotation_error) * kRadToDeg); });
   // The written pose is the true one moved by exactly that error.
   const PinholeCamera truth = makeSmoothTrajectory(3, 64, 48, 1)[1];
   const PinholeCamera tracked = trackedCamera(truth, d[5]);
@@ -390,19 +393,8 @@ TEST(RealisticCapture, VelocityNoiseHasTheStatisticsOfTheOptions) {
   options.velocity_noise_m_s = 0.05;
   const int frames = 4000;
   const std::vector<FrameDisturbance> d = drawFrameDisturbances(options, frames, 0.1);
-  for (int axis = 0; axis < 3; ++axis) {
-    std::vector<double> angular, linear;
-    for (const FrameDisturbance& f : d) {
-      angular.push_back(f.velocity_error.angular[axis]);
-      linear.push_back(f.velocity_error.linear[axis]);
-    }
-    // 4000 draws: the sample std dev within 1.1 % (1 sigma) of the true one.
-    EXPECT_NEAR(stats(angular).sd, 0.02, 0.02 * 0.05) << "axis " << axis;
-    EXPECT_NEAR(stats(linear).sd, 0.05, 0.05 * 0.05) << "axis " << axis;
-    EXPECT_LT(std::abs(lagOneCorrelation(linear)), 0.07) << "axis " << axis;
-    // Independent of the angular stream.
-    EXPECT_LT(std::abs(stats(angular).mean), 4 * 0.02 / std::sqrt(frames)) << "axis " << axis;
-  }
+  expectWhiteNoise(d, 0.02, "angular velocity", [](const FrameDisturbance& f) { return f.velocity_error.angular; });
+  expectWhiteNoise(d, 0.05, "linear velocity", [](const FrameDisturbance& f) { return f.velocity_error.linear; });
   // Pose noise alone leaves the velocities exact.
   RealismOptions pose_only;
   pose_only.pose_noise_m = 0.01;

@@ -28,10 +28,13 @@ struct ViewMotion {
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  // the view's own camera frame, m/s
   double readout_s = 0;                                // first row to last; 0: a global shutter
   bool rolling() const { return readout_s > 0 && velocity.squaredNorm() > 0; }
+  // tau(y) = rowTimeSlope y + rowTimeAtTop: both 0 when the view does not
+  // move during a readout (the matching cost takes them as they are).
+  double rowTimeSlope(int height) const { return rolling() && height > 1 ? readout_s / (height - 1) : 0; }
+  double rowTimeAtTop(int height) const { return rolling() && height > 1 ? -0.5 * readout_s : 0; }
   // Row y's camera centre minus the middle row's, in the camera frame.
   Eigen::Vector3d rowOffset(double row, int height) const {
-    if (!rolling() || height < 2) return Eigen::Vector3d::Zero();
-    return readout_s * (row / (height - 1) - 0.5) * velocity;
+    return (rowTimeSlope(height) * row + rowTimeAtTop(height)) * velocity;
   }
 };
 
