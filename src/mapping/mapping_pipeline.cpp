@@ -80,6 +80,7 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"keyframes_evicted_without_depth", &PipelineStats::keyframes_evicted_without_depth},
       {"rolling_shutter_rectified", &PipelineStats::rolling_shutter_rectified},
       {"rolling_shutter_not_rectified", &PipelineStats::rolling_shutter_not_rectified},
+      {"rolling_shutter_from_tracker_velocity", &PipelineStats::rolling_shutter_from_tracker_velocity},
       {"map voxels", &PipelineStats::map_voxels},
   };
   return fields;
@@ -659,6 +660,7 @@ std::vector<PipelineOutput> MappingPipeline::step() {
   stats_.keyframes_evicted_without_depth = mapper_->evictedWithoutDepth();
   stats_.rolling_shutter_rectified = mapper_->rollingShutterRectified();
   stats_.rolling_shutter_not_rectified = mapper_->rollingShutterNotRectified();
+  stats_.rolling_shutter_from_tracker_velocity = mapper_->rollingShutterFromTrackerVelocity();
   stats_.map_voxels = mapper_->mapVoxelCount();
   stats_.map_revision = mapper_->mapRevision();
   {

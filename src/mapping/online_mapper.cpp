@@ -169,6 +169,7 @@ void OnlineMapper::rectifyRollingShutter(int64_t id) {
                                                           options.readout_s));
     if (options.translation) store_.setMotion(id, {stored.velocity->linear, options.readout_s});
     ++rolling_shutter_rectified_;
+    ++rolling_shutter_from_tracker_velocity_;
     return;
   }
   const MotionAnchor previous = motion_anchor_;
@@ -796,6 +797,7 @@ void OnlineMapper::reset() {
   motion_anchor_ = MotionAnchor();
   rolling_shutter_rectified_ = 0;
   rolling_shutter_not_rectified_ = 0;
+  rolling_shutter_from_tracker_velocity_ = 0;
   estimates_.clear();
   fusion_deferred_ = false;
   undelivered_ = KeyframeResult();

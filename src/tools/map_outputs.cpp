@@ -567,6 +567,22 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
       addWithinFields(withinPct(aligned), &aligned_fields);
       aligned_fields.add("scale", number(alignment.scale));
       aligned_fields.add("rotation_deg", number(Eigen::AngleAxisd(alignment.rotation).angle() * 180 / M_PI));
+      // What is left of each keyframe pose's error after the similarity.
+      std::vector<double> position_mm, rotation_deg;
+      for (size_t i = 0; i < map_poses.size(); ++i) {
+        const Eigen::Vector3d centre =
+            alignment.scale * alignment.rotation * map_poses[i].translation() + alignment.translation;
+        const Eigen::Matrix3d rotation = alignment.rotation * map_poses[i].linear();
+        position_mm.push_back(1000 * (centre - true_poses[i].translation()).norm());
+        rotation_deg.push_back(Eigen::AngleAxisd(rotation.transpose() * true_poses[i].linear()).angle() * 180 / M_PI);
+      }
+      const auto addMedianAndMax = [&aligned_fields](const std::string& name, std::vector<double> values) {
+        std::sort(values.begin(), values.end());
+        aligned_fields.add(name + "_median", number(values[values.size() / 2]));
+        aligned_fields.add(name + "_max", number(values.back()));
+      };
+      addMedianAndMax("keyframe_position_error_mm", position_mm);
+      addMedianAndMax("keyframe_rotation_error_deg", rotation_deg);
       map.add("after_similarity_to_true_poses", aligned_fields.object());
     }
   }

@@ -335,11 +335,16 @@ TEST(MapCli, TrackerVelocityAtTheTruePoses) {
   // With velocities the first keyframe needs no second one's motion.
   EXPECT_EQ(jsonNumber(velocity, "stats", "rolling_shutter_rectified"), 6) << velocity;
   EXPECT_EQ(jsonNumber(velocity, "stats", "rolling_shutter_not_rectified"), 0) << velocity;
+  EXPECT_EQ(jsonNumber(velocity, "stats", "rolling_shutter_from_tracker_velocity"), 6) << velocity;
+  EXPECT_EQ(jsonNumber(poses, "stats", "rolling_shutter_from_tracker_velocity"), 0) << poses;
   // The poses are the true ones: the similarity to them is the identity.
   EXPECT_NEAR(jsonNumber(bundle, "after_similarity_to_true_poses", "scale"), 1.0, 1e-6) << bundle;
   EXPECT_NEAR(jsonNumber(bundle, "after_similarity_to_true_poses", "within_2cm_pct"),
               jsonNumber(bundle, "map", "within_2cm_pct"), 1e-6)
       << bundle;
+  // ... and what is left of each keyframe's pose error after it is nothing.
+  EXPECT_LT(jsonNumber(bundle, "after_similarity_to_true_poses", "keyframe_position_error_mm_max"), 1e-6) << bundle;
+  EXPECT_LT(jsonNumber(bundle, "after_similarity_to_true_poses", "keyframe_rotation_error_deg_max"), 1e-6) << bundle;
 }
 
 // The written depth is NaN exactly where the written confidence is below

@@ -150,12 +150,14 @@ TEST(RollingShutter, OnlineMapperUsesTheTrackersVelocityWhenGiven) {
             rectifyRollingShutter(k0.image, k0.camera, velocity.angular, 0.05).data);
   EXPECT_EQ(mapper.rollingShutterRectified(), 1u);
   EXPECT_EQ(mapper.rollingShutterNotRectified(), 0u);
+  EXPECT_EQ(mapper.rollingShutterFromTrackerVelocity(), 1u);
   EXPECT_EQ(mapper.store().entry(0).motion.velocity, velocity.linear);
   EXPECT_EQ(mapper.store().entry(0).motion.readout_s, 0.05);
   // A keyframe without one: rectified from the poses, rotation only.
   mapper.process(texturedKeyframe(1, 0.5, 0.3, 4));
   EXPECT_FALSE(mapper.store().entry(1).motion.rolling());
   EXPECT_EQ(mapper.rollingShutterRectified(), 2u);
+  EXPECT_EQ(mapper.rollingShutterFromTrackerVelocity(), 1u);
   // Translation off: the turn is still taken from the velocity, no motion kept.
   options.rolling_shutter.translation = false;
   OnlineMapper rotation_only(options, test::wallDepth);

@@ -322,6 +322,8 @@ class OnlineMapper {
   // second's motion while nothing has read its image yet).
   size_t rollingShutterRectified() const { return rolling_shutter_rectified_; }
   size_t rollingShutterNotRectified() const { return rolling_shutter_not_rectified_; }
+  // Of the rectified, those with the tracker's velocity (use_tracker_velocity).
+  size_t rollingShutterFromTrackerVelocity() const { return rolling_shutter_from_tracker_velocity_; }
 
   // Forgets every keyframe and empties the map.
   void reset();
@@ -498,6 +500,7 @@ class OnlineMapper {
   uint64_t estimates_started_ = 0;
   size_t rolling_shutter_rectified_ = 0;
   size_t rolling_shutter_not_rectified_ = 0;
+  size_t rolling_shutter_from_tracker_velocity_ = 0;
 };
 
 }  // namespace amhmvs
