@@ -11,7 +11,7 @@ stamps, e.g. a bag's /camera/depth_gt), each keyframe's last depth image is
 compared with the truth of its stamp where both have depth: the pooled median
 relative error at most ~max_median_error, at least ~min_within_10pct percent
 within 10 %. With ~min_counters (a dict), each named diagnostics counter is
-at least its value. With ~truth_dense_dir (an MVSNet dense folder with the
+at least its value; with ~max_counters, present and at most its value. With ~truth_dense_dir (an MVSNet dense folder with the
 true cameras in cams_gt/ and z-depth in depth_gt/, as amhmvs_synthetic
 writes), the last map is judged against the true surface: at least
 ~min_map_within_2cm percent of its points (up to ~map_sample points, evenly
@@ -69,6 +69,7 @@ class MapReplay(unittest.TestCase):
         cls.max_median_error = rospy.get_param('~max_median_error', 1.0)
         cls.min_within_10pct = rospy.get_param('~min_within_10pct', 0.0)
         cls.min_counters = rospy.get_param('~min_counters', {})
+        cls.max_counters = rospy.get_param('~max_counters', {})
         cls.truth_dense_dir = rospy.get_param('~truth_dense_dir', '')
         cls.min_map_within_2cm = rospy.get_param('~min_map_within_2cm', 0.0)
         cls.map_sample = rospy.get_param('~map_sample', 5000)
@@ -172,10 +173,13 @@ class MapReplay(unittest.TestCase):
         self.assertGreaterEqual(within, self.min_within_10pct)
 
     def test_06_counters(self):
-        if not self.min_counters:
-            self.skipTest('no ~min_counters')
+        if not self.min_counters and not self.max_counters:
+            self.skipTest('no ~min_counters or ~max_counters')
         for name, floor in self.min_counters.items():
             self.assertGreaterEqual(int(self.diagnostics.get(name, -1)), floor, (name, self.diagnostics))
+        for name, ceiling in self.max_counters.items():
+            self.assertIn(name, self.diagnostics)
+            self.assertLessEqual(int(self.diagnostics[name]), ceiling, (name, self.diagnostics))
 
     def test_07_map_against_true_surface(self):
         if not self.truth_dense_dir:
