@@ -709,8 +709,9 @@ bool OnlineMapper::stereoPosesMoved(int64_t id, const EstimateRecord& record) co
   // Relative depth error of a pose change at a parallax of ~3 deg (10 cm at
   // 2 m): 0.01 deg of rotation ~0.3 %; a baseline 0.2 % longer 0.2 %.
   // (pose_refinement.h: max_pose_reestimates)
-  constexpr double kMaxTurnRad = 0.01 * M_PI / 180, kMaxDirectionRad = 0.05 * M_PI / 180, kMaxLengthChange = 2e-3;
+  constexpr double kMaxTurnRad = 0.01 * M_PI / 180, kMaxDirectionRad = 0.05 * M_PI / 180;
   const PoseRefinementOptions& options = options_.pose_refinement;
+  const double max_length_change = options.reestimate_length_change;
   if (!options.enabled || !options.keyframe_bundle_adjustment || record.stereo_sources.empty() ||
       record.pose_reestimates >= options.max_pose_reestimates || !store_.contains(id))
     return false;
@@ -723,7 +724,7 @@ bool OnlineMapper::stereoPosesMoved(int64_t id, const EstimateRecord& record) co
     const double length = used_centre.norm();
     if (!(length > 0)) continue;
     if (Eigen::AngleAxisd(turn).angle() > kMaxTurnRad ||
-        std::abs(now_centre.norm() / length - 1) > kMaxLengthChange ||
+        std::abs(now_centre.norm() / length - 1) > max_length_change ||
         std::acos(std::clamp(now_centre.normalized().dot(used_centre.normalized()), -1.0, 1.0)) > kMaxDirectionRad)
       return true;
   }

@@ -36,6 +36,8 @@ std::string PoseRefinementOptions::validate() const {
   require(std::isfinite(graph_direction_sigma_deg) && graph_direction_sigma_deg > 0, "graph_direction_sigma_deg",
           graph_direction_sigma_deg, "finite and > 0");
   require(max_pose_reestimates >= 0, "max_pose_reestimates", max_pose_reestimates, ">= 0");
+  require(reestimate_length_change > 0 && reestimate_length_change < 1, "reestimate_length_change",
+          reestimate_length_change, "in (0, 1)");
   return why.str();
 }
 
@@ -93,7 +95,10 @@ const std::vector<PoseRefinementOptionInfo>& poseRefinementOptionTable() {
                   "refinement; its poses place the map and are the stereo's and the fusion's relative poses"),
       numberField("max_pose_reestimates", &O::max_pose_reestimates,
                   "keyframe_bundle_adjustment: re-estimates per keyframe when the adjustment moves its sources "
-                  "(0.01 deg, 0.05 deg of direction or 0.2 % of length); 0 = never"),
+                  "(0.01 deg, 0.05 deg of direction or reestimate_length_change of length); 0 = never"),
+      numberField("reestimate_length_change", &O::reestimate_length_change,
+                  "keyframe_bundle_adjustment: a source's baseline length change (fraction) that re-estimates "
+                  "the keyframe"),
   };
   return table;
 }

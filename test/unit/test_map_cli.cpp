@@ -298,6 +298,16 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
       << bundle_summary;
   EXPECT_GT(jsonNumber(bundle_summary, "results", "refined"), jsonNumber(again_summary, "results", "refined"))
       << bundle_summary;
+
+  // A keyframe is estimated again on a smaller change of a source's baseline
+  // length with --pose_refinement_reestimate_length_change (0.002 above).
+  const std::string sensitive_summary =
+      refinedRun("sensitive", rolling_shutter +
+                                  " --pose_refinement_correct_map_poses=1 --fuse_neighbours_again"
+                                  " --pose_refinement_keyframe_bundle_adjustment=1"
+                                  " --pose_refinement_reestimate_length_change 0.00001");
+  EXPECT_GT(jsonNumber(sensitive_summary, "results", "refined"), jsonNumber(bundle_summary, "results", "refined"))
+      << sensitive_summary;
 }
 
 // The tracker's velocity (velocities.txt, --rolling_shutter_velocity): with

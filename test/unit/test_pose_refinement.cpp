@@ -153,6 +153,8 @@ TEST(PoseRefinementOptions, DefaultsAreValidAndBadValuesNamed) {
       {[](PoseRefinementOptions& o) { o.max_correction_m = INFINITY; }, "max_correction_m"},
       {[](PoseRefinementOptions& o) { o.max_correction_deg = 200; }, "max_correction_deg"},
       {[](PoseRefinementOptions& o) { o.max_pose_reestimates = -1; }, "max_pose_reestimates"},
+      {[](PoseRefinementOptions& o) { o.reestimate_length_change = 0; }, "reestimate_length_change"},
+      {[](PoseRefinementOptions& o) { o.reestimate_length_change = NAN; }, "reestimate_length_change"},
   };
   for (const auto& [spoil, name] : bad) {
     PoseRefinementOptions options;

@@ -88,10 +88,13 @@ struct PoseRefinementOptions {
   bool keyframe_bundle_adjustment = false;
   // keyframe_bundle_adjustment: a keyframe is estimated again (up to this
   // many times) once the adjustment has moved one of its sources relative to
-  // it by more than 0.01 deg, 0.05 deg of baseline direction or 0.2 % of
-  // baseline length (each ~0.3 % of depth at a 3 deg parallax): the scale
-  // settles as keyframes arrive. 0: never.
+  // it by more than 0.01 deg, 0.05 deg of baseline direction or
+  // reestimate_length_change of baseline length (each ~0.3 % of depth at a
+  // 3 deg parallax): the scale settles as keyframes arrive. 0: never.
   int max_pose_reestimates = 8;
+  // A source's baseline length change (fraction) that re-estimates the
+  // keyframe: a depth map keeps up to this much of an early solve's scale.
+  double reestimate_length_change = 2e-3;
 
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;
