@@ -576,10 +576,9 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
         position_mm.push_back(1000 * (centre - true_poses[i].translation()).norm());
         rotation_deg.push_back(Eigen::AngleAxisd(rotation.transpose() * true_poses[i].linear()).angle() * 180 / M_PI);
       }
-      const auto addMedianAndMax = [&aligned_fields](const std::string& name, std::vector<double> values) {
-        std::sort(values.begin(), values.end());
-        aligned_fields.add(name + "_median", number(values[values.size() / 2]));
-        aligned_fields.add(name + "_max", number(values.back()));
+      const auto addMedianAndMax = [&aligned_fields](const std::string& name, const std::vector<double>& values) {
+        aligned_fields.add(name + "_median", number(median(values)));
+        aligned_fields.add(name + "_max", number(*std::max_element(values.begin(), values.end())));
       };
       addMedianAndMax("keyframe_position_error_mm", position_mm);
       addMedianAndMax("keyframe_rotation_error_deg", rotation_deg);

@@ -11,9 +11,9 @@ stamps, e.g. a bag's /camera/depth_gt), each keyframe's last depth image is
 compared with the truth of its stamp where both have depth: the pooled median
 relative error at most ~max_median_error, at least ~min_within_10pct percent
 within 10 %. With ~min_counters (a dict), each named diagnostics counter is
-at least its value; with ~max_counters, present and at most its value. With ~truth_dense_dir (an MVSNet dense folder with the
-true cameras in cams_gt/ and z-depth in depth_gt/, as amhmvs_synthetic
-writes), the last map is judged against the true surface: at least
+at least its value; with ~max_counters, present and at most its value. With
+~truth_dense_dir (an MVSNet dense folder with the true cameras in cams_gt/
+and z-depth in depth_gt/, as amhmvs_synthetic writes), the last map is judged against the true surface: at least
 ~min_map_within_2cm percent of its points (up to ~map_sample points, evenly
 spaced) within 2 cm of a point of the back-projected true depth. With
 ~min_map_within_5cm and ~truth_topic, the last map is judged against the
