@@ -49,6 +49,7 @@ set(AMHMVS_CORE_SOURCES
   src/io/posed_sequence.cpp
   src/io/seven_scenes_sequence.cpp
   src/io/tum_rgbd_sequence.cpp
+  src/io/tum_trajectory.cpp
   src/mvs/patchmatch_options.cpp
   src/mvs/propagation_pattern.cpp
   src/mvs/depth_estimator.cpp

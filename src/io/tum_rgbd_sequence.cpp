@@ -8,6 +8,7 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/io/posed_sequence.h"
+#include "amhmvs_mapping/io/tum_trajectory.h"
 #include "text_lines.h"
 
 namespace amhmvs {
@@ -29,24 +30,6 @@ std::vector<std::pair<double, std::string>> readStampedPaths(const std::string& 
     entries.push_back({internal::numberAt(path, line, 0), line.tokens[1]});
   }
   return entries;
-}
-
-std::vector<std::pair<double, Eigen::Isometry3d>> readTrajectory(const std::string& path) {
-  std::vector<std::pair<double, Eigen::Isometry3d>> poses;
-  for (const internal::TextLine& line : internal::readTextLines(path)) {
-    internal::expectTokens(path, line, 8, "timestamp tx ty tz qx qy qz qw");
-    double v[8];
-    for (size_t i = 0; i < 8; ++i) v[i] = internal::numberAt(path, line, i);
-    const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
-    if (std::abs(q.norm() - 1) > 1e-3) {
-      internal::failAt(path, line.number, "quaternion (qx qy qz qw) is not of unit length");
-    }
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    pose.linear() = q.normalized().toRotationMatrix();
-    pose.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
-    poses.push_back({v[0], pose});
-  }
-  return poses;
 }
 
 // Stamps sorted, for nearest-neighbour association.
@@ -84,7 +67,7 @@ Intrinsics defaultTumIntrinsics(const std::string& dir) {
 
 PosedSequence readTumSequence(const std::string& dir, const PosedSequenceOptions& options) {
   const auto colors = readStampedPaths(dir + "/rgb.txt");
-  const auto poses = readTrajectory(dir + "/groundtruth.txt");
+  const auto poses = readTumTrajectory(dir + "/groundtruth.txt");
   std::vector<std::pair<double, std::string>> depths;
   if (fs::exists(dir + "/depth.txt")) depths = readStampedPaths(dir + "/depth.txt");
   const std::vector<Stamped> pose_stamps = sortedStamps(poses), depth_stamps = sortedStamps(depths);

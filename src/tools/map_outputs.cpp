@@ -16,6 +16,7 @@
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/pfm.h"
 #include "amhmvs_mapping/io/point_cloud_io.h"
+#include "amhmvs_mapping/io/tum_trajectory.h"
 #include "amhmvs_mapping/mapping/map_export.h"
 
 namespace amhmvs {
@@ -330,6 +331,19 @@ void MapOutputs::writeFiles(const KeyframeResult& result) {
   }
 }
 
+void MapOutputs::writeKeyframePoses(const VoxelMap& map) const {
+  std::vector<StampedPose> poses;
+  for (int64_t id : map.keyframeIds()) {
+    const auto frame = frame_of_id_.find(id);
+    if (frame != frame_of_id_.end()) poses.push_back({sequence_.frames[frame->second].stamp, map.pose(id)});
+  }
+  std::sort(poses.begin(), poses.end(), [](const StampedPose& a, const StampedPose& b) { return a.first < b.first; });
+  writeTumTrajectory(dir_ + "/keyframe_poses.txt", poses,
+                     "The map's keyframe poses (camera-to-world, where map.ply placed each keyframe's points):\n"
+                     "the tracker's, or corrected by the pose graph or the bundle adjustment.\n"
+                     "stamp tx ty tz qx qy qz qw");
+}
+
 bool MapOutputs::publishesWhenFused() const { return options_.pipeline.mapper.confidence.enabled; }
 
 std::string MapOutputs::comparePublished(const KeyframeResult& result) {
@@ -429,6 +443,7 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   std::vector<Eigen::Isometry3d> map_poses, true_poses;
   pipeline.withMapper([&](const OnlineMapper& mapper) {
     writeMap(dir_ + "/map.ply", mapper.map());
+    writeKeyframePoses(mapper.map());
     map_points = mapper.map().exportCloud().points;
     for (const auto& entry : true_poses_) {
       if (!mapper.map().contains(entry.first)) continue;

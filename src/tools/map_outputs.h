@@ -53,6 +53,8 @@ class MapOutputs {
   // True when depth maps are written (published) when their keyframe is
   // fused, masked by the confidence; false: when estimated, unmasked.
   bool publishesWhenFused() const;
+  // keyframe_poses.txt: where the map placed each keyframe (TUM format, by stamp).
+  void writeKeyframePoses(const VoxelMap& map) const;
   // The published depth maps of the keyframes `result` fused against ground
   // truth (kept per keyframe); their rows as a JSON list.
   std::string comparePublished(const KeyframeResult& result);
