@@ -48,6 +48,7 @@ std::string VoxelMapOptions::validate() const {
   if (max_voxels == 0) why << "max_voxels must be positive\n";
   if (max_points == 0) why << "max_points must be positive\n";
   if (max_keyframes == 0) why << "max_keyframes must be positive\n";
+  if (!(min_points_per_voxel >= 1)) why << "min_points_per_voxel must be at least 1 (got " << min_points_per_voxel << ")\n";
   for (int axis = 0; axis < 3; ++axis) {
     if (!(region_min[axis] < region_max[axis]))  // also catches NaN
       why << "region_min must be below region_max on every axis (axis " << axis << ": " << region_min[axis]
@@ -425,21 +426,17 @@ VoxelMapUpdate VoxelMap::updatePose(int64_t id, const Eigen::Isometry3d& camera_
   return insert(id, sequence, camera_to_world, points);
 }
 
-const Eigen::Isometry3d& VoxelMap::pose(int64_t id) const {
+const VoxelMap::KeyframeContribution& VoxelMap::contributionOf(int64_t id) const {
   const auto it = keyframes_.find(id);
   if (it == keyframes_.end()) {
     throw InputError("voxel map: keyframe " + std::to_string(id) + " is not in the map");
   }
-  return it->second.camera_to_world;
+  return it->second;
 }
 
-const Shared<KeyframePoints>& VoxelMap::keyframePoints(int64_t id) const {
-  const auto it = keyframes_.find(id);
-  if (it == keyframes_.end()) {
-    throw InputError("voxel map: keyframe " + std::to_string(id) + " is not in the map");
-  }
-  return it->second.points;
-}
+const Eigen::Isometry3d& VoxelMap::pose(int64_t id) const { return contributionOf(id).camera_to_world; }
+
+const Shared<KeyframePoints>& VoxelMap::keyframePoints(int64_t id) const { return contributionOf(id).points; }
 
 std::vector<int64_t> VoxelMap::keyframeIds() const {
   std::vector<int64_t> ids;
@@ -459,6 +456,15 @@ size_t VoxelMap::memoryBytes() const {
   return voxel_bytes + point_bytes + keyframe_bytes;
 }
 
+size_t VoxelMap::exportedPointCount(int64_t id) const {
+  size_t exported = 0;
+  for (uint64_t key : contributionOf(id).keys) {
+    if (key == kOutsideRegion) continue;
+    exported += static_cast<int64_t>(shard(key).at(key).count) >= options_.min_points_per_voxel;
+  }
+  return exported;
+}
+
 PointCloud VoxelMap::exportCloud() const {
   std::vector<uint64_t> keys;
   keys.reserve(voxelCount());
@@ -475,6 +481,7 @@ PointCloud VoxelMap::exportCloud() const {
   cloud.counts.reserve(keys.size());
   for (uint64_t key : keys) {
     const Voxel& voxel = shard(key).at(key);
+    if (static_cast<int64_t>(voxel.count) < options_.min_points_per_voxel) continue;
     const double n = voxel.count;
     const Eigen::Vector3d offset(voxel.offset_sum[0], voxel.offset_sum[1], voxel.offset_sum[2]);
     Eigen::Vector3d position = voxelCentre(key) + offset / n;

@@ -92,6 +92,7 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
 
   read(nh, "map/voxel_size", &o->map.leaf_size);
   read(nh, "map/max_voxels", &o->map.max_voxels);
+  read(nh, "map/min_points_per_voxel", &o->map.min_points_per_voxel);
   read(nh, "map/region_min", &o->map.region_min);
   read(nh, "map/region_max", &o->map.region_max);
 

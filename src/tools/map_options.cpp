@@ -82,6 +82,7 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
       pipeline.mapper.sources.min_triangulation_angle_deg = parseValue<double>(name, value);
     else if (name == "preferred_angle_deg") pipeline.mapper.sources.preferred_angle_deg = parseValue<double>(name, value);
     else if (name == "voxel_size") pipeline.mapper.map.leaf_size = parseValue<double>(name, value);
+    else if (name == "min_points_per_voxel") pipeline.mapper.map.min_points_per_voxel = parseValue<int>(name, value);
     else if (name == "queue_size") options.queue_size = parseValue<size_t>(name, value);
     else if (name == "skip_to_newest") pipeline.skip_to_newest = parseSwitch(name, value);
     else if (name == "start_from_neighbours") neighbours.start_from_neighbours = parseSwitch(name, value);
@@ -199,6 +200,8 @@ std::string mapToolUsage() {
          "  --depth_min M --depth_max M  depth range of every keyframe (default: from the\n"
          "                       layout (MVSNet, COLMAP), else the neighbours' depth maps)\n"
          "  --voxel_size M       map voxel edge (default 0.02)\n"
+         "  --min_points_per_voxel N  map.ply leaves out voxels with fewer points (default 1: none;\n"
+         "                       the README's curve: accuracy against completeness)\n"
          "  --fusion_max_reprojection_error PX  --fusion_max_relative_depth_difference F\n"
          "  --fusion_max_normal_angle_deg D  --fusion_max_cost C  --fusion_min_consistent_views N\n"
          "                       the fusion's checks (mapping/fusion.h; 0 = off; defaults 2, 0.02,\n"

@@ -315,7 +315,10 @@ void MapOutputs::writeDepth(int64_t id, const ImageF& depth, const DepthRangeEst
 }
 
 void MapOutputs::writeFiles(const KeyframeResult& result) {
-  if (result.has_depth) depth_ranges_[result.id] = result.depth_range;
+  if (result.has_depth) {
+    depth_ranges_[result.id] = result.depth_range;
+    keyframe_pixels_[result.id] = static_cast<size_t>(result.camera.width) * result.camera.height;
+  }
   // With the confidence, a depth map is published when its keyframe is fused.
   if (result.has_depth && !publishesWhenFused()) writeDepth(result.id, result.depth->depth, result.depth_range);
   for (const FusedKeyframe& fused : result.fused) {
@@ -439,12 +442,18 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   const bool map_poses_corrected =
       refinement.enabled && (refinement.correct_map_poses || refinement.keyframe_bundle_adjustment);
   std::vector<Eigen::Vector3f> map_placed_truth;
+  // Per keyframe in the map: the share of its pixels whose fused point is in an exported voxel.
+  std::vector<double> pixels_in_map_pct;
   // Where true poses are known: the map's keyframe poses and those.
   std::vector<Eigen::Isometry3d> map_poses, true_poses;
   pipeline.withMapper([&](const OnlineMapper& mapper) {
     writeMap(dir_ + "/map.ply", mapper.map());
     writeKeyframePoses(mapper.map());
     map_points = mapper.map().exportCloud().points;
+    for (const auto& [id, pixels] : keyframe_pixels_) {
+      if (mapper.map().contains(id) && pixels > 0)
+        pixels_in_map_pct.push_back(100.0 * mapper.map().exportedPointCount(id) / pixels);
+    }
     for (const auto& entry : true_poses_) {
       if (!mapper.map().contains(entry.first)) continue;
       map_poses.push_back(mapper.map().pose(entry.first));
@@ -539,6 +548,11 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   std::vector<double> map_bound_within_pct;  // ... and at the map's corrected poses
   map.add("points", std::to_string(map_points.size()));
   map.add("voxel_size", number(options_.pipeline.mapper.map.leaf_size));
+  map.add("min_points_per_voxel", std::to_string(options_.pipeline.mapper.map.min_points_per_voxel));
+  if (!pixels_in_map_pct.empty()) {
+    map.add("keyframe_pixels_in_map_pct_least", number(*std::min_element(pixels_in_map_pct.begin(), pixels_in_map_pct.end())));
+    map.add("keyframe_pixels_in_map_pct_median", number(median(pixels_in_map_pct)));
+  }
   if (!truth_points_.empty()) {
     const std::vector<Eigen::Vector3f> truth = allPoints(truth_points_);
     const VoxelGridIndex index(truth, kMapThresholds.back());

@@ -75,6 +75,7 @@ class MapOutputs {
   std::map<int64_t, DepthComparison> accuracy_;  // latest depth map of each keyframe
   std::map<int64_t, DepthComparison> published_accuracy_;  // latest published depth map of each keyframe
   std::map<int64_t, DepthRangeEstimate> depth_ranges_;  // of each keyframe's latest depth map (previews)
+  std::map<int64_t, size_t> keyframe_pixels_;  // of each keyframe with a depth map, at the processed size
   std::map<int64_t, std::vector<Eigen::Vector3f>> truth_points_;  // true surface, world (trueSurfaceView)
   // Where the recording has true poses apart from the tracker's: the exact
   // depth placed at the tracker's poses (what the pose error alone leaves of

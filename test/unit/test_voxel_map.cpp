@@ -4,8 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <vector>
 
 #include "amhmvs_mapping/core/error.h"
@@ -233,6 +235,75 @@ TEST(VoxelMap, BadInputIsAClearError) {
   options = VoxelMapOptions();
   options.max_voxels = 0;
   EXPECT_INPUT_ERROR(VoxelMap{options}, "max_voxels", "positive");
+  options = VoxelMapOptions();
+  options.min_points_per_voxel = 0;
+  EXPECT_INPUT_ERROR(VoxelMap{options}, "min_points_per_voxel", "at least 1");
+}
+
+// min_points_per_voxel leaves out exactly the voxels that the same map
+// without it exports with fewer points, exports the others unchanged, and
+// stays so when a keyframe is removed or re-posed; each keyframe's points in
+// exported voxels are what a brute-force count per voxel gives.
+TEST(VoxelMap, ExportLeavesOutVoxelsWithFewerPoints) {
+  VoxelMapOptions every;
+  every.leaf_size = 0.1;
+  VoxelMapOptions thick = every;
+  thick.min_points_per_voxel = 3;
+  VoxelMap all(every), filtered(thick);
+  // Three keyframes over one surface, each with its own spacing, so that
+  // voxels get 1 to 9+ points.
+  const float spacings[] = {0.031f, 0.047f, 0.083f};
+  std::map<int64_t, std::pair<Eigen::Isometry3d, KeyframePoints>> in_map;  // the brute force's copy
+  for (int64_t id = 0; id < 3; ++id) {
+    const KeyframePoints points = gridPoints(12 - 3 * id, spacings[id]);
+    in_map[id] = {pose(Eigen::Vector3d(0.013 * id, 0, 0)), points};
+    all.addKeyframe(id, in_map[id].first, points);
+    filtered.addKeyframe(id, in_map[id].first, points);
+  }
+  const auto voxelOf = [&](const Eigen::Isometry3d& placed, const KeyframePoint& point) {
+    const Eigen::Vector3d world = placed * point.position.cast<double>();
+    return std::array<int64_t, 3>{static_cast<int64_t>(std::floor(world.x() / every.leaf_size)),
+                                  static_cast<int64_t>(std::floor(world.y() / every.leaf_size)),
+                                  static_cast<int64_t>(std::floor(world.z() / every.leaf_size))};
+  };
+  const auto expectFilteredExport = [&](const char* when) {
+    std::map<std::array<int64_t, 3>, int> points_in_voxel;
+    for (const auto& [id, keyframe] : in_map)
+      for (const KeyframePoint& point : keyframe.second) ++points_in_voxel[voxelOf(keyframe.first, point)];
+    for (const auto& [id, keyframe] : in_map) {
+      size_t exported = 0;
+      for (const KeyframePoint& point : keyframe.second) exported += points_in_voxel[voxelOf(keyframe.first, point)] >= 3;
+      EXPECT_EQ(filtered.exportedPointCount(id), exported) << when << " keyframe " << id;
+      EXPECT_EQ(all.exportedPointCount(id), keyframe.second.size()) << when << " keyframe " << id;
+    }
+    const PointCloud every_voxel = all.exportCloud(), kept = filtered.exportCloud();
+    expectAllFinite(kept);
+    size_t expected = 0, thin = 0;
+    for (size_t i = 0; i < every_voxel.size(); ++i) {
+      if (every_voxel.counts[i] < 3) {
+        ++thin;
+        continue;
+      }
+      ASSERT_LT(expected, kept.size()) << when;
+      EXPECT_EQ(kept.points[expected], every_voxel.points[i]) << when << " voxel " << i;
+      EXPECT_EQ(kept.counts[expected], every_voxel.counts[i]) << when;
+      ++expected;
+    }
+    EXPECT_EQ(kept.size(), expected) << when;
+    EXPECT_GT(thin, 0u) << when;  // the test leaves some out
+    EXPECT_GT(expected, 0u) << when;
+    EXPECT_EQ(filtered.voxelCount(), all.voxelCount()) << when;  // kept, only not exported
+  };
+  expectFilteredExport("three keyframes");
+  all.removeKeyframe(1);
+  filtered.removeKeyframe(1);
+  in_map.erase(1);
+  expectFilteredExport("one removed");
+  in_map[2].first = pose(Eigen::Vector3d(0.05, 0.02, 0));
+  all.updatePose(2, in_map[2].first);
+  filtered.updatePose(2, in_map[2].first);
+  expectFilteredExport("one re-posed");
+  EXPECT_INPUT_ERROR(filtered.exportedPointCount(1), "keyframe 1", "not in the map");
 }
 
 TEST(VoxelMap, RegionOfInterestKeepsOutsidePointsOutOfTheMapButExactForRePosing) {

@@ -51,6 +51,12 @@ struct VoxelMapOptions {
   size_t max_voxels = 5000000;    // voxels in the map
   size_t max_points = 20000000;   // keyframe points kept for re-posing
   size_t max_keyframes = 100000;  // keyframes with a contribution
+  // Voxels with fewer points are kept (and counted) but not exported: a
+  // surface fused from noisy depth is a few voxels thick, and its outer
+  // voxels hold few points that sit farther off it (realism room, 2 cm
+  // voxels: 71 % of the one-point voxels within 2 cm, 99.6 % of those with
+  // 9 or more). 1 = every voxel.
+  int min_points_per_voxel = 1;
   // Region of interest, world frame: an axis-aligned box (min < max on each
   // axis; infinite bounds allowed). Default: everything.
   Eigen::Vector3d region_min = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
@@ -99,8 +105,13 @@ class VoxelMap {
   // One point per voxel, world frame, voxels in ascending key order
   // (deterministic): the mean position, the normalised mean normal (zero when
   // the normals cancel out), the rounded mean colour, the mean confidence and
-  // the number of points merged (PointCloud::counts).
+  // the number of points merged (PointCloud::counts). Voxels with fewer than
+  // min_points_per_voxel points are left out.
   PointCloud exportCloud() const;
+  // How many of keyframe `id`'s points are in voxels that exportCloud()
+  // exports (all its points in the region when min_points_per_voxel is 1).
+  // Throws InputError for an unknown id.
+  size_t exportedPointCount(int64_t id) const;
   size_t voxelCount() const;
   size_t keyframeCount() const { return keyframes_.size(); }
   size_t storedPointCount() const { return stored_points_; }
@@ -130,6 +141,8 @@ class VoxelMap {
     Shared<KeyframePoints> points;  // accepted points, camera frame
     std::vector<uint64_t> keys;  // voxel of each accepted point
   };
+  // Throws InputError for an unknown id.
+  const KeyframeContribution& contributionOf(int64_t id) const;
   struct PlacedPoint {
     Eigen::Vector3d world;
     Eigen::Vector3d normal;
