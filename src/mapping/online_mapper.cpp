@@ -833,6 +833,10 @@ void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
     map_ = std::move(rebuilt);
     noteMapChanged();
   }
+  if (options.map.min_points_per_voxel != map_.options().min_points_per_voxel) {
+    map_.setMinPointsPerVoxel(options.map.min_points_per_voxel);  // what is published, not the voxels
+    noteMapChanged();
+  }
   kept.map = map_.options();
   for (auto& entry : estimates_) entry.second.selection_checked_at = EstimateRecord::kNeverChecked;  // new criteria
   if (!options.pose_refinement.enabled) {

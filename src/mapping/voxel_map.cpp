@@ -456,6 +456,14 @@ size_t VoxelMap::memoryBytes() const {
   return voxel_bytes + point_bytes + keyframe_bytes;
 }
 
+void VoxelMap::setMinPointsPerVoxel(int min_points) {
+  VoxelMapOptions changed = options_;
+  changed.min_points_per_voxel = min_points;
+  const std::string why = changed.validate();
+  if (!why.empty()) throw InputError("voxel map: " + why);
+  options_ = changed;
+}
+
 size_t VoxelMap::exportedPointCount(int64_t id) const {
   size_t exported = 0;
   for (uint64_t key : contributionOf(id).keys) {

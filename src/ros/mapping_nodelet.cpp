@@ -84,10 +84,11 @@ void MappingNodelet::onInit() {
   callbacks.pose_update = [this](int64_t id, const Eigen::Isometry3d& pose) { pipeline_->pushPoseUpdate(id, pose); };
   inputs_.reset(new MappingInputs(nh, pnh, config_, std::move(callbacks)));
   NODELET_INFO("amhmvs mapping: input mode %s, queue %d, up to %d sources, default depth %.2f..%.2f m, "
-               "max image size %d, voxel size %.3f m, backend %s",
+               "max image size %d, voxel size %.3f m (published with %d or more points), backend %s",
                config_.input_mode.c_str(), config_.queue_size, config_.mapper.sources.max_sources,
                config_.mapper.depth_range.default_min, config_.mapper.depth_range.default_max,
-               config_.max_image_size, config_.mapper.map.leaf_size, amhmvs::backendName(pipeline_->backend()));
+               config_.max_image_size, config_.mapper.map.leaf_size, config_.mapper.map.min_points_per_voxel,
+               amhmvs::backendName(pipeline_->backend()));
 }
 
 void MappingNodelet::workerLoop() {
@@ -150,9 +151,10 @@ void MappingNodelet::reconfigure(MappingTunablesConfig& tunables, uint32_t /*lev
     }
   }
   pipeline_->setOptions(reconfigured_.mapper, reconfigured_.estimator);
-  NODELET_INFO("reconfigured: %d iterations, up to %d sources, voxel size %.3f m (applied before the next keyframe)",
+  NODELET_INFO("reconfigured: %d iterations, up to %d sources, voxel size %.3f m, published with %d or more points "
+               "(applied before the next keyframe)",
                reconfigured_.estimator.num_iterations, reconfigured_.mapper.sources.max_sources,
-               reconfigured_.mapper.map.leaf_size);
+               reconfigured_.mapper.map.leaf_size, reconfigured_.mapper.map.min_points_per_voxel);
 }
 
 bool MappingNodelet::resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {

@@ -23,6 +23,7 @@ MappingTunablesConfig tunablesFrom(const MappingConfig& config) {
   t.min_consistent_views = fusion.min_consistent_views;
   t.max_cost = thresholdParam(fusion.max_cost);
   t.voxel_size = config.mapper.map.leaf_size;
+  t.min_points_per_voxel = config.mapper.map.min_points_per_voxel;
   return t;
 }
 
@@ -38,6 +39,7 @@ void applyTunables(const MappingTunablesConfig& t, MappingConfig* config) {
   fusion.min_consistent_views = t.min_consistent_views;
   fusion.max_cost = thresholdFrom(t.max_cost);
   config->mapper.map.leaf_size = t.voxel_size;
+  config->mapper.map.min_points_per_voxel = t.min_points_per_voxel;
 }
 
 }  // namespace amhmvs_mapping

@@ -153,6 +153,19 @@ class KeyframeServices(unittest.TestCase):
         self.assertGreater(coarse, 0)
         self.assertLess(coarse, count_after)  # measured 1226 -> 718: coarser voxels merge points
 
+        # ... and min_points_per_voxel republishes it without the thin voxels,
+        # then with all of them again.
+        for min_points, expect in ((1000, lambda width: width < coarse), (1, lambda width: width == coarse)):
+            reconfigured = watch.count('reconfigurations')
+            maps_before = len(self.maps)
+            client.update_configuration({'min_points_per_voxel': min_points})
+            self.assertTrue(watch.wait_for(lambda: watch.count('reconfigurations') == reconfigured + 1, 10),
+                            watch.diagnostics)
+            self.assertTrue(watch.wait_for(lambda: len(self.maps) > maps_before, 10))
+            rospy.loginfo('check_keyframe_services: min_points_per_voxel %d: %d map points', min_points,
+                          self.latest_map().width)
+            self.assertTrue(expect(self.latest_map().width), self.latest_map().width)
+
         # Pause: input ignored and counted; resume; reset: an empty map.
         self.assertTrue(watch.call('pause').success)
         self.pub.publish(self.keyframe(KEYFRAMES, KEYFRAMES))

@@ -873,6 +873,24 @@ TEST(OnlineMapper, ResetAndVoxelSizeChange) {
   mapper.setOptions(coarser);
   EXPECT_LT(mapper.map().voxelCount(), voxels);
   EXPECT_GT(mapper.map().voxelCount(), 0u);
+  // Fewer voxels published, none dropped, and the map is new to its readers.
+  const PointCloud every_voxel = mapper.map().exportCloud();
+  const size_t published = every_voxel.size();
+  const int most_points = static_cast<int>(*std::max_element(every_voxel.counts.begin(), every_voxel.counts.end()));
+  const uint64_t revision = mapper.mapRevision();
+  OnlineMapperOptions thick = coarser;
+  thick.map.min_points_per_voxel = most_points;  // only the fullest voxels
+  mapper.setOptions(thick);
+  EXPECT_EQ(mapper.map().options().min_points_per_voxel, most_points);
+  EXPECT_LT(mapper.map().exportCloud().size(), published);
+  EXPECT_GT(mapper.map().exportCloud().size(), 0u);
+  EXPECT_EQ(mapper.map().voxelCount(), published);
+  EXPECT_GT(mapper.mapRevision(), revision);
+  thick.map.min_points_per_voxel = 0;
+  EXPECT_THROW(mapper.setOptions(thick), InputError);
+  EXPECT_EQ(mapper.map().options().min_points_per_voxel, most_points);  // nothing changed
+  mapper.setOptions(coarser);
+  EXPECT_EQ(mapper.map().exportCloud().size(), published);
   coarser.sources.max_sources = 0;
   EXPECT_THROW(mapper.setOptions(coarser), InputError);
   mapper.process(keyframeAt(10, 20.0));  // far away: no source

@@ -126,6 +126,9 @@ class VoxelMap {
   size_t totalEvictedKeyframes() const { return total_evicted_keyframes_; }
 
   const VoxelMapOptions& options() const { return options_; }
+  // What exportCloud() leaves out (VoxelMapOptions::min_points_per_voxel);
+  // the voxels stay as they are. Throws InputError below 1.
+  void setMinPointsPerVoxel(int min_points);
 
  private:
   struct Voxel {
