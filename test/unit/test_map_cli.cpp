@@ -5,6 +5,7 @@
 // these settings (values in the comments) and set a little below.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
