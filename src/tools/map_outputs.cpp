@@ -447,9 +447,11 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   // Where true poses are known: the map's keyframe poses and those.
   std::vector<Eigen::Isometry3d> map_poses, true_poses;
   pipeline.withMapper([&](const OnlineMapper& mapper) {
-    writeMap(dir_ + "/map.ply", mapper.map());
+    // Exported once: written as map.ply and judged below.
+    const PointCloud cloud = mapper.map().exportCloud();
+    writePointCloud(dir_ + "/map.ply", cloud);
     writeKeyframePoses(mapper.map());
-    map_points = mapper.map().exportCloud().points;
+    map_points = cloud.points;
     for (const auto& [id, pixels] : keyframe_pixels_) {
       if (mapper.map().contains(id) && pixels > 0)
         pixels_in_map_pct.push_back(100.0 * mapper.map().exportedPointCount(id) / pixels);
