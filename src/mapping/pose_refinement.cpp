@@ -20,6 +20,8 @@ std::string PoseRefinementOptions::validate() const {
   require(min_inliers >= 6, "min_inliers", min_inliers, ">= 6 (a relative pose has 5 degrees of freedom)");
   require(std::isfinite(feature_sigma_px) && feature_sigma_px > 0, "feature_sigma_px", feature_sigma_px,
           "finite and > 0");
+  require(std::isfinite(finest_feature_size_px) && finest_feature_size_px >= 0, "finest_feature_size_px",
+          finest_feature_size_px, "finite and >= 0 (0: off)");
   require(std::isfinite(prior_position_sigma_m) && prior_position_sigma_m > 0, "prior_position_sigma_m",
           prior_position_sigma_m, "finite and > 0");
   require(std::isfinite(prior_rotation_sigma_deg) && prior_rotation_sigma_deg > 0, "prior_rotation_sigma_deg",
@@ -68,6 +70,9 @@ const std::vector<PoseRefinementOptionInfo>& poseRefinementOptionTable() {
       numberField("min_inliers", &O::min_inliers, "fewer inliers: the source keeps the tracker's pose"),
       numberField("feature_sigma_px", &O::feature_sigma_px,
                   "reprojection noise of a match, pixels (weighs the matches against the prior)"),
+      numberField("finest_feature_size_px", &O::finest_feature_size_px,
+                  "a feature of size s (diameter, px) weighs with sigma feature_sigma_px * max(1, s / this); "
+                  "0 = every feature at feature_sigma_px"),
       numberField("prior_position_sigma_m", &O::prior_position_sigma_m,
                   "prior: the tracker's noise, expected error of each keyframe's position, std dev per axis, m"),
       numberField("prior_rotation_sigma_deg", &O::prior_rotation_sigma_deg,

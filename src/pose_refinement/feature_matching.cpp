@@ -18,8 +18,11 @@ ImageFeatures detectFeatures(const ImageViewU8& gray, int max_features) {
   // (resize's convention, ours) the original pixel is 0.25 less.
   constexpr double kUpsamplingOffset = 0.25;
   features.pixels.reserve(keypoints.size());
-  for (const cv::KeyPoint& keypoint : keypoints)
+  features.sizes.reserve(keypoints.size());
+  for (const cv::KeyPoint& keypoint : keypoints) {
     features.pixels.emplace_back(keypoint.pt.x - kUpsamplingOffset, keypoint.pt.y - kUpsamplingOffset);
+    features.sizes.push_back(keypoint.size);
+  }
   return features;
 }
 

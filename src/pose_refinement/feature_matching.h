@@ -14,6 +14,7 @@ namespace amhmvs {
 
 struct ImageFeatures {
   std::vector<Eigen::Vector2d> pixels;  // subpixel positions, pixel centres at integers
+  std::vector<double> sizes;            // diameters (SIFT scale), pixels
   cv::Mat descriptors;                  // one row per feature (SIFT: 128 floats)
 };
 

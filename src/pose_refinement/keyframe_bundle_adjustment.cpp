@@ -10,6 +10,7 @@
 #include "pose_prior_residual.h"
 
 namespace amhmvs {
+
 namespace {
 
 template <typename T>
@@ -41,6 +42,7 @@ struct ReprojectionResidual {
 struct Observation {
   int64_t key;
   Eigen::Vector2d pixel;
+  double sigma_px;  // the feature's position noise (keyframeFeatureSigmaPx)
   bool active = true;
 };
 
@@ -86,7 +88,8 @@ class TrackSets {
 
 // Matches joined into tracks: features connected by a chain of matches.
 std::vector<Track> buildTracks(const std::map<int64_t, BundleKeyframe>& keyframes,
-                               const std::vector<KeyframeFeatureMatches>& matches) {
+                               const std::vector<KeyframeFeatureMatches>& matches,
+                               const KeyframeBundleAdjustmentSettings& settings) {
   std::map<std::pair<int64_t, int>, int> node_of;
   std::vector<std::pair<int64_t, int>> feature_of;
   TrackSets sets;
@@ -111,8 +114,9 @@ std::vector<Track> buildTracks(const std::map<int64_t, BundleKeyframe>& keyframe
   std::map<int, Track> by_root;
   for (size_t n = 0; n < feature_of.size(); ++n) {
     const auto& feature = feature_of[n];
+    const BundleKeyframe& keyframe = keyframes.at(feature.first);
     by_root[sets.find(static_cast<int>(n))].observations.push_back(
-        {feature.first, keyframes.at(feature.first).pixels[feature.second]});
+        {feature.first, keyframe.pixels[feature.second], featureSigmaPx(keyframe, feature.second, settings)});
   }
   std::vector<Track> tracks;
   for (auto& entry : by_root) {
@@ -157,10 +161,10 @@ struct Correction {
   double w[3] = {0, 0, 0}, dc[3] = {0, 0, 0};
 };
 
-ReprojectionResidual residualOf(const BundleKeyframe& keyframe, const Eigen::Vector2d& pixel, double inverse_sigma) {
+ReprojectionResidual residualOf(const BundleKeyframe& keyframe, const Observation& observation) {
   const PinholeCamera& camera = keyframe.camera;
-  return {camera.R.transpose(), camera.center(), camera.fx, camera.fy, camera.cx, camera.cy, pixel,
-          keyframe.motion.rowOffset(pixel.y(), camera.height), inverse_sigma};
+  return {camera.R.transpose(), camera.center(), camera.fx, camera.fy, camera.cx, camera.cy, observation.pixel,
+          keyframe.motion.rowOffset(observation.pixel.y(), camera.height), 1 / observation.sigma_px};
 }
 
 // Reprojection error in pixels (infinite behind the camera).
@@ -181,20 +185,19 @@ bool solve(const std::map<int64_t, BundleKeyframe>& keyframes, const KeyframeBun
            Loss loss, const std::set<int64_t>& held, std::vector<Track>* tracks,
            std::map<int64_t, Correction>* corrections) {
   ceres::Problem problem;
-  const double inverse_sigma = 1 / settings.feature_sigma_px;
-  const double scale = settings.huber_px * inverse_sigma;
   for (Track& track : *tracks) {
     if (track.activeCount() < 2) continue;
     for (const Observation& observation : track.observations) {
       if (!observation.active) continue;
       Correction& correction = (*corrections)[observation.key];
+      const double scale = settings.huber_px / observation.sigma_px;  // huber_px in units of the residual
       ceres::LossFunction* robust = nullptr;
       if (loss == Loss::kCauchy)
         robust = new ceres::CauchyLoss(scale);
       else
         robust = new ceres::HuberLoss(scale);
       problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 3, 3, 3>(new ReprojectionResidual(
-                                   residualOf(keyframes.at(observation.key), observation.pixel, inverse_sigma))),
+                                   residualOf(keyframes.at(observation.key), observation))),
                                robust, correction.w, correction.dc, track.point.data());
     }
   }
@@ -225,14 +228,14 @@ struct ErrorSums {
 
 std::map<int64_t, ErrorSums> keyframeErrors(const std::map<int64_t, BundleKeyframe>& keyframes,
                                             const std::vector<Track>& initial, const std::vector<Track>& tracks,
-                                            const std::map<int64_t, Correction>& corrections, double inverse_sigma) {
+                                            const std::map<int64_t, Correction>& corrections) {
   std::map<int64_t, ErrorSums> sums;
   const Correction none;
   for (size_t t = 0; t < tracks.size(); ++t) {
     if (tracks[t].activeCount() < 2) continue;
     for (const Observation& observation : tracks[t].observations) {
       if (!observation.active) continue;
-      const ReprojectionResidual residual = residualOf(keyframes.at(observation.key), observation.pixel, inverse_sigma);
+      const ReprojectionResidual residual = residualOf(keyframes.at(observation.key), observation);
       const auto correction = corrections.find(observation.key);
       ErrorSums& sum = sums[observation.key];
       sum.before += std::pow(std::min(errorPx(residual, none, initial[t].point), 1e3), 2);
@@ -254,7 +257,7 @@ KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, BundleKey
                                                const KeyframeBundleAdjustmentSettings& settings) {
   KeyframeBundleAdjustmentResult result;
   std::vector<Track> tracks;
-  for (Track& track : buildTracks(keyframes, matches)) {
+  for (Track& track : buildTracks(keyframes, matches, settings)) {
     if (triangulate(keyframes, settings.min_ray_angle_rad, &track)) tracks.push_back(std::move(track));
   }
   std::map<int64_t, Correction> corrections;
@@ -263,11 +266,9 @@ KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, BundleKey
   // with them tracks left shorter than min_final_track_length; the second
   // solve starts from the tracker's poses and points triangulated there from
   // the observations that stay.
-  const double inverse_sigma = 1 / settings.feature_sigma_px;
   for (Track& track : tracks) {
     for (Observation& observation : track.observations) {
-      const ReprojectionResidual residual =
-          residualOf(keyframes.at(observation.key), observation.pixel, inverse_sigma);
+      const ReprojectionResidual residual = residualOf(keyframes.at(observation.key), observation);
       if (observation.active && errorPx(residual, corrections[observation.key], track.point) > 2 * settings.huber_px)
         observation.active = false;
     }
@@ -283,7 +284,7 @@ KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, BundleKey
   // features agree with the tracker there, and moving it would only fit
   // their noise (with exact poses this cost the realism map 15 points).
   // The others are solved again with the confirmed ones held.
-  std::map<int64_t, ErrorSums> sums = keyframeErrors(keyframes, initial, tracks, corrections, inverse_sigma);
+  std::map<int64_t, ErrorSums> sums = keyframeErrors(keyframes, initial, tracks, corrections);
   std::set<int64_t> confirmed;
   for (const auto& entry : sums)
     if (entry.second.explainedRmsPx() < settings.min_explained_rms_px) confirmed.insert(entry.first);
@@ -293,7 +294,7 @@ KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, BundleKey
     if (confirmed.size() < corrections.size() &&
         !solve(keyframes, settings, Loss::kHuber, confirmed, &tracks, &corrections))
       return result;
-    sums = keyframeErrors(keyframes, initial, tracks, corrections, inverse_sigma);
+    sums = keyframeErrors(keyframes, initial, tracks, corrections);
   }
   result.solved = true;
   result.confirmed = static_cast<int>(confirmed.size());

@@ -103,6 +103,12 @@ void copyAdjustmentSettings(const PoseRefinementOptions& options, Settings* sett
   settings->max_iterations = options.max_iterations;
 }
 
+// A match's position noise: its coarser feature's (finest_feature_size_px).
+double matchSigmaPx(const PoseRefinementOptions& options, double reference_size, double source_size) {
+  return featureSigmaPx(options.feature_sigma_px, std::max(reference_size, source_size),
+                        options.finest_feature_size_px);
+}
+
 }  // namespace
 
 class PoseRefiner::Impl {
@@ -146,13 +152,14 @@ KeyframeBundleAdjustmentResult PoseRefiner::Impl::adjustKeyframes(
     if (features == cache_.end()) continue;
     const auto motion = motions.find(entry.first);
     keyframes[entry.first] = {entry.second, features->second->pixels,
-                              motion != motions.end() ? motion->second : ViewMotion()};
+                              motion != motions.end() ? motion->second : ViewMotion(), features->second->sizes};
   }
   std::vector<KeyframeFeatureMatches> matches;
   for (const auto& pair : pair_matches_) matches.push_back({pair.first.first, pair.first.second, pair.second});
   KeyframeBundleAdjustmentSettings settings;
   copyAdjustmentSettings(options_, &settings);
   settings.min_explained_rms_px = options_.min_explained_rms_px;
+  settings.finest_feature_size_px = options_.finest_feature_size_px;
   return amhmvs::adjustKeyframes(keyframes, matches, settings);
 }
 
@@ -227,7 +234,9 @@ PoseRefinementResult PoseRefiner::Impl::refine(DepthProblem* problem) {
     for (const FeatureMatch& match : matches[s].inliers) {
       const auto point = point_of_feature.find(match.reference);
       if (point != point_of_feature.end())
-        observations.push_back({point->second, source_features[s]->pixels[match.source]});
+        observations.push_back({point->second, source_features[s]->pixels[match.source],
+                                matchSigmaPx(options_, reference_features->sizes[match.reference],
+                                             source_features[s]->sizes[match.source])});
     }
     adjustment.addSource(problem->source_cameras[s], tracker[s].rotation, tracker[s].centre, std::move(observations));
     if (result.sources[s].inliers < options_.min_inliers)

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <limits>
+#include <memory>
 
 #include "pose_prior_residual.h"
 
@@ -133,8 +134,8 @@ void StarBundleAdjustment::solve(bool poses_free) {
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
-  // In units of sigma, like the residuals.
-  ceres::HuberLoss huber(settings_.huber_px / settings_.feature_sigma_px);
+  // In units of each observation's sigma, like its residual: robust beyond huber_px.
+  std::vector<std::unique_ptr<ceres::HuberLoss>> losses;
   std::vector<bool> used(rays_.size(), false);
   for (Source& source : sources_) {
     if (source.state == State::kInactive || source.observations.empty()) continue;
@@ -143,8 +144,11 @@ void StarBundleAdjustment::solve(bool poses_free) {
       residual->geometry = geometryOf(rays_[observation.point], source.rotation_to_reference,
                                       source.centre_in_reference, source.fx, source.fy, source.cx, source.cy,
                                       observation.pixel);
-      residual->inverse_sigma = 1.0 / settings_.feature_sigma_px;
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 3, 3, 1>(residual), &huber,
+      const double sigma = observation.sigma_px > 0 ? observation.sigma_px : settings_.feature_sigma_px;
+      residual->inverse_sigma = 1.0 / sigma;
+      losses.push_back(std::make_unique<ceres::HuberLoss>(settings_.huber_px / sigma));
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 3, 3, 1>(residual),
+                               losses.back().get(),
                                source.rotation.data(), source.shift.data(), &inverse_depths_[observation.point]);
       used[observation.point] = true;
     }

@@ -41,6 +41,7 @@ class StarBundleAdjustment {
   struct Observation {
     int point = 0;            // index into the reference rays
     Eigen::Vector2d pixel;    // in the source
+    double sigma_px = 0;      // its position noise; 0: settings' feature_sigma_px
   };
 
   // `rays`: the reference features' rays K_ref^-1 (u, v, 1); their inverse

@@ -75,6 +75,24 @@ TEST_F(PoseRefinementScene, RemovesAKnownPoseErrorOfASource) {
   EXPECT_EQ(problem.reference_camera.t, reference_before.t);
 }
 
+// With the features weighed by their size (finest_feature_size_px), the
+// error is removed as well: a coarse match weighs less, not nothing.
+TEST_F(PoseRefinementScene, FeaturesWeighedBySizeRemoveTheErrorToo) {
+  AMHMVS_REQUIRE_POSE_REFINEMENT();
+  DepthProblem& problem = scene_.problem;
+  problem.source_cameras[0] = withPoseError(true_sources_[0], {0.004, -0.008, 0.008}, {1, 2, 0.5}, 0.5);
+  PoseRefinementOptions options;
+  options.finest_feature_size_px = 2;
+  PoseRefiner refiner(options);
+  const PoseRefinementResult result = refiner.refine(&problem);
+  ASSERT_TRUE(result.ran);
+  const double error_after = meanImageMotionPx(scene_, problem.source_cameras[0], true_sources_[0]);
+  std::cout << "weighed by size: mean image motion of the perturbed source 3.01 -> " << error_after << " px\n";
+  EXPECT_EQ(result.sources[0].outcome, SourcePoseOutcome::kRefined);
+  EXPECT_LT(error_after, 0.05);  // measured 0.025 px (unweighted: 0.011; the prior weighs relatively more)
+  EXPECT_EQ(result.sources[1].outcome, SourcePoseOutcome::kConfirmed);
+}
+
 TEST_F(PoseRefinementScene, TexturelessSourceKeepsTheTrackersPoseAndSaysSo) {
   AMHMVS_REQUIRE_POSE_REFINEMENT();
   DepthProblem& problem = scene_.problem;
@@ -147,6 +165,8 @@ TEST(PoseRefinementOptions, DefaultsAreValidAndBadValuesNamed) {
       {[](PoseRefinementOptions& o) { o.inlier_threshold_px = 0; }, "inlier_threshold_px"},
       {[](PoseRefinementOptions& o) { o.min_inliers = 3; }, "min_inliers"},
       {[](PoseRefinementOptions& o) { o.feature_sigma_px = NAN; }, "feature_sigma_px"},
+      {[](PoseRefinementOptions& o) { o.finest_feature_size_px = -1; }, "finest_feature_size_px"},
+      {[](PoseRefinementOptions& o) { o.finest_feature_size_px = INFINITY; }, "finest_feature_size_px"},
       {[](PoseRefinementOptions& o) { o.prior_position_sigma_m = -1; }, "prior_position_sigma_m"},
       {[](PoseRefinementOptions& o) { o.prior_rotation_sigma_deg = 0; }, "prior_rotation_sigma_deg"},
       {[](PoseRefinementOptions& o) { o.max_iterations = 0; }, "max_iterations"},

@@ -31,6 +31,7 @@
 // Builds without Ceres return no poses (keyframeBundleAdjustmentAvailable()).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <utility>
@@ -43,7 +44,14 @@
 namespace amhmvs {
 
 struct KeyframeBundleAdjustmentSettings {
+  // Position noise of the finest features (size at most finest_feature_size_px).
   double feature_sigma_px = 0.5;
+  // Coarser features are noisier in proportion to their size, and biased:
+  // a blob's centre is not where the surface point projects once the views
+  // see the surface from other angles (perspective). A feature of size s
+  // (BundleKeyframe::sizes) weighs with sigma = feature_sigma_px *
+  // max(1, s / finest_feature_size_px); 0: every feature at feature_sigma_px.
+  double finest_feature_size_px = 0;
   double huber_px = 1.5;
   double prior_position_sigma_m = 0.01;
   double prior_rotation_sigma_rad = 0.3 * M_PI / 180;
@@ -66,7 +74,23 @@ struct BundleKeyframe {
   PinholeCamera camera;
   std::vector<Eigen::Vector2d> pixels;
   ViewMotion motion;
+  std::vector<double> sizes;  // per feature, its diameter in pixels; empty: all of the finest size
 };
+
+// The position noise of a feature of size `size_px`: feature_sigma_px *
+// max(1, size_px / finest_feature_size_px); feature_sigma_px when
+// finest_feature_size_px is 0 (the star's and the keyframes' adjustments).
+inline double featureSigmaPx(double feature_sigma_px, double size_px, double finest_feature_size_px) {
+  if (!(finest_feature_size_px > 0)) return feature_sigma_px;
+  return feature_sigma_px * std::max(1.0, size_px / finest_feature_size_px);
+}
+// A keyframe's feature's (one without a size: the finest).
+inline double featureSigmaPx(const BundleKeyframe& keyframe, int feature,
+                             const KeyframeBundleAdjustmentSettings& settings) {
+  const bool sized = feature >= 0 && feature < static_cast<int>(keyframe.sizes.size());
+  return featureSigmaPx(settings.feature_sigma_px, sized ? keyframe.sizes[feature] : 0,
+                        settings.finest_feature_size_px);
+}
 
 // Matched features of two keyframes: (feature of `first`, feature of `second`).
 struct KeyframeFeatureMatches {

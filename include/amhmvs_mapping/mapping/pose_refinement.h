@@ -55,6 +55,14 @@ struct PoseRefinementOptions {
   int min_inliers = 20;               // fewer matches left: the source keeps the tracker's pose
   // --- Bundle adjustment ---
   double feature_sigma_px = 0.5;      // reprojection noise of a match (weighs matches against the prior)
+  // Coarse SIFT features are blobs whose centre moves with the viewing angle
+  // (perspective), not only noisier: a feature of size s (diameter, pixels)
+  // weighs with sigma = feature_sigma_px * max(1, s / finest_feature_size_px),
+  // a match with its coarser feature's. 0: all at feature_sigma_px. On sharp
+  // images (the realism room without blur, noise or rolling shutter) the
+  // adjustment's relative rotations then stay within 0.013 deg of the truth
+  // instead of turning 0.3 % too far (README "Coarse features").
+  double finest_feature_size_px = 0;
   // The tracker's noise: expected error of each keyframe's pose, std dev
   // per axis of its position (metres) and of its rotation (degrees).
   double prior_position_sigma_m = 0.01;
