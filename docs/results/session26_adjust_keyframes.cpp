@@ -1,0 +1,77 @@
+// Session 26: mapping/keyframe_bundle_adjustment.h on the features, sizes and
+// matches that `session26_coarse_features.py export` writes; prints each
+// keyframe's adjusted camera-to-world pose (id and 16 numbers, row-major),
+// which `session26_coarse_features.py pairs --poses DATA:FILE` compares with
+// the truth. Arguments after the file: finest_feature_size_px (default 0)
+// and min_explained_rms_px (default 0.25; 0 moves keyframes started at the
+// true poses as well, instead of confirming them).
+// Build against the dev build's core:
+//   g++ -O2 -std=c++17 -Iinclude -I/usr/include/eigen3 docs/results/session26_adjust_keyframes.cpp \
+//       -Lbuild_cpu/devel/lib -lamhmvs_core -o /tmp/adjust_keyframes
+#include <cstdlib>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "amhmvs_mapping/mapping/keyframe_bundle_adjustment.h"
+#include "amhmvs_mapping/mapping/keyframe_store.h"
+
+int main(int argc, char** argv) {
+  using namespace amhmvs;
+  if (argc < 2) {
+    std::cerr << "usage: adjust_keyframes FILE [finest_feature_size_px [min_explained_rms_px]]\n";
+    return 2;
+  }
+  std::ifstream in(argv[1]);
+  std::map<int64_t, BundleKeyframe> keyframes;
+  std::vector<KeyframeFeatureMatches> matches;
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream fields(line);
+    std::string tag;
+    int64_t key = 0;
+    int count = 0;
+    fields >> tag;
+    if (tag == "K") {  // id, size, intrinsics, world-to-camera [R | t] row-major
+      BundleKeyframe keyframe;
+      PinholeCamera& camera = keyframe.camera;
+      fields >> key >> camera.width >> camera.height >> camera.fx >> camera.fy >> camera.cx >> camera.cy;
+      for (int row = 0; row < 3; ++row) {
+        for (int col = 0; col < 3; ++col) fields >> camera.R(row, col);
+        fields >> camera.t(row);
+      }
+      keyframes[key] = keyframe;
+    } else if (tag == "F") {  // pixels
+      fields >> key >> count;
+      for (int i = 0; i < count; ++i) {
+        double x = 0, y = 0;
+        fields >> x >> y;
+        keyframes[key].pixels.emplace_back(x, y);
+      }
+    } else if (tag == "S") {  // sizes
+      fields >> key >> count;
+      keyframes[key].sizes.resize(count);
+      for (double& size : keyframes[key].sizes) fields >> size;
+    } else if (tag == "M") {  // matched feature pairs of two keyframes
+      KeyframeFeatureMatches pair;
+      fields >> pair.first >> pair.second >> count;
+      pair.features.resize(count);
+      for (auto& match : pair.features) fields >> match.first >> match.second;
+      matches.push_back(pair);
+    }
+  }
+  KeyframeBundleAdjustmentSettings settings;
+  if (argc > 2) settings.finest_feature_size_px = std::atof(argv[2]);
+  if (argc > 3) settings.min_explained_rms_px = std::atof(argv[3]);
+  const KeyframeBundleAdjustmentResult result = adjustKeyframes(keyframes, matches, settings);
+  std::cerr << "solved " << result.solved << ", tracks " << result.tracks << ", confirmed " << result.confirmed
+            << ", rms " << result.rms_before_px << " -> " << result.rms_after_px << " px\n";
+  std::cout << std::setprecision(17);
+  for (const auto& [id, pose] : result.poses) {
+    std::cout << id;
+    for (int row = 0; row < 4; ++row)
+      for (int col = 0; col < 4; ++col) std::cout << ' ' << pose.matrix()(row, col);
+    std::cout << '\n';
+  }
+  return result.solved ? 0 : 1;
+}
