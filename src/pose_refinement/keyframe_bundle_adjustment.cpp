@@ -10,7 +10,6 @@
 #include "pose_prior_residual.h"
 
 namespace amhmvs {
-
 namespace {
 
 template <typename T>
@@ -42,7 +41,7 @@ struct ReprojectionResidual {
 struct Observation {
   int64_t key;
   Eigen::Vector2d pixel;
-  double sigma_px;  // the feature's position noise (keyframeFeatureSigmaPx)
+  double sigma_px;  // the feature's position noise (featureSigmaPx)
   bool active = true;
 };
 

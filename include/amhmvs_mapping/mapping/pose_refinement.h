@@ -60,8 +60,9 @@ struct PoseRefinementOptions {
   // weighs with sigma = feature_sigma_px * max(1, s / finest_feature_size_px),
   // a match with its coarser feature's. 0: all at feature_sigma_px. On sharp
   // images (the realism room without blur, noise or rolling shutter) the
-  // adjustment's relative rotations then stay within 0.013 deg of the truth
-  // instead of turning 0.3 % too far (README "Coarse features").
+  // keyframe adjustment's relative rotations then stay within 0.013 deg of
+  // the truth instead of turning 0.2-0.4 % too far; off by default, as the
+  // realism default profile loses with it (README "Coarse features").
   double finest_feature_size_px = 0;
   // The tracker's noise: expected error of each keyframe's pose, std dev
   // per axis of its position (metres) and of its rotation (degrees).
