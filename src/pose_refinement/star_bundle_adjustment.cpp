@@ -5,7 +5,6 @@
 
 #include <cmath>
 #include <limits>
-#include <memory>
 
 #include "pose_prior_residual.h"
 
@@ -131,11 +130,7 @@ ObservationGeometry geometryOf(const Eigen::Vector3d& ray, const Eigen::Matrix3d
 }  // namespace
 
 void StarBundleAdjustment::solve(bool poses_free) {
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  // In units of each observation's sigma, like its residual: robust beyond huber_px.
-  std::vector<std::unique_ptr<ceres::HuberLoss>> losses;
+  ceres::Problem problem;  // owns the cost and loss functions
   std::vector<bool> used(rays_.size(), false);
   for (Source& source : sources_) {
     if (source.state == State::kInactive || source.observations.empty()) continue;
@@ -146,9 +141,9 @@ void StarBundleAdjustment::solve(bool poses_free) {
                                       observation.pixel);
       const double sigma = observation.sigma_px > 0 ? observation.sigma_px : settings_.feature_sigma_px;
       residual->inverse_sigma = 1.0 / sigma;
-      losses.push_back(std::make_unique<ceres::HuberLoss>(settings_.huber_px / sigma));
+      // In units of this observation's sigma, like its residual: robust beyond huber_px.
       problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 3, 3, 1>(residual),
-                               losses.back().get(),
+                               new ceres::HuberLoss(settings_.huber_px / sigma),
                                source.rotation.data(), source.shift.data(), &inverse_depths_[observation.point]);
       used[observation.point] = true;
     }
