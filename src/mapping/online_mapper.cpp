@@ -180,8 +180,12 @@ void OnlineMapper::rectifyRollingShutter(int64_t id) {
     return;
   }
   const Eigen::Vector3d angular_velocity = cameraAngularVelocity(previous.camera, stored.camera, interval);
+  const PoseRefinementOptions& refinement = options_.pose_refinement;
+  const bool rectified_again_later =
+      options.from_adjusted_poses && refinement.enabled && refinement.keyframe_bundle_adjustment;
   const auto rectifyStored = [&](int64_t key) {
     const Keyframe& keyframe = store_.keyframe(key);
+    if (rectified_again_later) chord_rectified_[key] = {keyframe.image, angular_velocity};
     store_.replaceImage(key, amhmvs::rectifyRollingShutter(keyframe.image, keyframe.camera, angular_velocity,
                                                            options.readout_s));
     ++rolling_shutter_rectified_;
@@ -193,6 +197,72 @@ void OnlineMapper::rectifyRollingShutter(int64_t id) {
     rectifyStored(previous.id);
     --rolling_shutter_not_rectified_;
   }
+}
+
+void OnlineMapper::planRectificationFromPoses(const std::map<int64_t, Eigen::Isometry3d>& poses) {
+  if (chord_rectified_.empty()) return;
+  // A change below this much turn over a readout moves no pixel by more
+  // than a few hundredths (1e-4 rad x a focal length of a few hundred px).
+  constexpr double kMinChangeRad = 1e-4;
+  const double readout_s = options_.rolling_shutter.readout_s;
+  std::vector<std::pair<double, int64_t>> by_time;
+  for (const auto& entry : poses)
+    if (store_.contains(entry.first)) by_time.emplace_back(store_.keyframe(entry.first).stamp, entry.first);
+  std::sort(by_time.begin(), by_time.end());
+  for (size_t i = 0; i < by_time.size(); ++i) {
+    const auto rectified = chord_rectified_.find(by_time[i].second);
+    if (rectified == chord_rectified_.end()) continue;
+    // A depth map that is not estimated again keeps the image it was estimated from.
+    const auto record = estimates_.find(rectified->first);
+    if (record != estimates_.end() && record->second.pose_reestimates >= options_.pose_refinement.max_pose_reestimates) {
+      rectify_again_.erase(rectified->first);
+      continue;
+    }
+    // The mean of the chords to the keyframes before and after (each turn's
+    // axis is the same in both of its cameras' frames).
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    int chords = 0;
+    const auto addChord = [&](size_t earlier, size_t later) {
+      const double seconds = by_time[later].first - by_time[earlier].first;
+      if (!(seconds > 0) || seconds > options_.rolling_shutter.max_interval_s) return;
+      const Eigen::AngleAxisd turn(poses.at(by_time[earlier].second).linear().transpose() *
+                                   poses.at(by_time[later].second).linear());
+      sum += turn.angle() * turn.axis() / seconds;
+      ++chords;
+    };
+    if (i > 0) addChord(i - 1, i);
+    if (i + 1 < by_time.size()) addChord(i, i + 1);
+    if (chords == 0) continue;
+    const Eigen::Vector3d wanted = sum / chords;
+    if ((wanted - rectified->second.angular_velocity).norm() * readout_s > kMinChangeRad)
+      rectify_again_[rectified->first] = wanted;
+    else
+      rectify_again_.erase(rectified->first);
+  }
+}
+
+void OnlineMapper::rectifyDueAgain() {
+  const double readout_s = options_.rolling_shutter.readout_s;
+  for (const auto& [id, wanted] : rectify_again_) {
+    const auto rectified = chord_rectified_.find(id);
+    if (rectified == chord_rectified_.end() || !store_.contains(id)) continue;
+    const PinholeCamera camera = store_.keyframe(id).camera;
+    store_.replaceImage(id, amhmvs::rectifyRollingShutter(rectified->second.unrectified, camera, wanted, readout_s));
+    if (forget_image_) forget_image_(id);
+    const Eigen::Vector3d used = rectified->second.angular_velocity;
+    if (pose_refiner_)
+      pose_refiner_->moveFeatures(
+          id, [&](const Eigen::Vector2d& pixel) { return rectifiedAgain(pixel, camera, used, wanted, readout_s); });
+    rectified->second.angular_velocity = wanted;
+    ++image_revisions_[id];
+    ++rolling_shutter_rectified_again_;
+  }
+  rectify_again_.clear();
+}
+
+int OnlineMapper::imageRevision(int64_t id) const {
+  const auto found = image_revisions_.find(id);
+  return found != image_revisions_.end() ? found->second : 0;
 }
 
 bool OnlineMapper::fuseDeferred(KeyframeResult* result) {
@@ -258,6 +328,7 @@ bool OnlineMapper::estimateLate(KeyframeResult* result) {
 
 bool OnlineMapper::refine(KeyframeResult* result) {
   fuseDeferredNow();  // first: it may evict what a refinement would read
+  rectifyDueAgain();  // nothing reads the images now
   if (options_.refinement.max_refinements == 0) return fuseDeferred(result);
   const Clock::time_point start = Clock::now();
   for (auto& [id, record] : estimates_) {
@@ -381,6 +452,8 @@ void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult
   record.stereo_sources.clear();
   for (size_t s = 0; s < sources.size() && s < problem.source_cameras.size(); ++s)
     record.stereo_sources[sources[s]] = problem.source_cameras[s];
+  record.image_revisions = {{id, imageRevision(id)}};
+  for (int64_t source : sources) record.image_revisions[source] = imageRevision(source);
   if (result->refinement_rejected) {
     result->waiting_for_fusion = waiting_.size();
     return;
@@ -436,6 +509,9 @@ OnlineMapper::Forgotten OnlineMapper::forgetKeyframe(int64_t id) {
   if (pose_refiner_) pose_refiner_->forget(id);
   refined_poses_.forget(id);
   map_poses_.erase(id);  // its points stay in the map where they are
+  chord_rectified_.erase(id);
+  rectify_again_.erase(id);
+  image_revisions_.erase(id);
   const auto without_depth = std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id);
   if (without_depth != waiting_for_sources_.end()) {
     waiting_for_sources_.erase(without_depth);
@@ -702,6 +778,7 @@ bool OnlineMapper::adjustKeyframePoses(int64_t id, DepthProblem* problem) {
     refined_poses_.place(id, problem->reference_camera, problem->source_keys[s], &problem->source_cameras[s]);
   map_poses_ = adjusted.poses;
   placeMapPoses();
+  planRectificationFromPoses(adjusted.poses);
   return true;
 }
 
@@ -715,6 +792,8 @@ bool OnlineMapper::stereoPosesMoved(int64_t id, const EstimateRecord& record) co
   if (!options.enabled || !options.keyframe_bundle_adjustment || record.stereo_sources.empty() ||
       record.pose_reestimates >= options.max_pose_reestimates || !store_.contains(id))
     return false;
+  for (const auto& [key, revision] : record.image_revisions)
+    if (store_.contains(key) && imageRevision(key) != revision) return true;  // rectified again since
   for (const auto& [source, used] : record.stereo_sources) {
     PinholeCamera now = used;
     if (!store_.contains(source) || !refined_poses_.place(id, record.stereo_reference, source, &now)) continue;
@@ -798,6 +877,10 @@ void OnlineMapper::reset() {
   motion_anchor_ = MotionAnchor();
   rolling_shutter_rectified_ = 0;
   rolling_shutter_not_rectified_ = 0;
+  rolling_shutter_rectified_again_ = 0;
+  chord_rectified_.clear();
+  rectify_again_.clear();
+  image_revisions_.clear();
   rolling_shutter_from_tracker_velocity_ = 0;
   estimates_.clear();
   fusion_deferred_ = false;

@@ -119,6 +119,13 @@ class PoseRefiner::Impl {
   KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras,
                                                  const std::map<int64_t, ViewMotion>& motions) const;
   void forget(int64_t key);
+  void moveFeatures(int64_t key, const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>& move) {
+    const auto found = cache_.find(key);
+    if (found == cache_.end()) return;
+    auto moved = std::make_shared<ImageFeatures>(*found->second);
+    for (Eigen::Vector2d& pixel : moved->pixels) pixel = move(pixel);
+    found->second = std::move(moved);
+  }
   void forgetAll() {
     cache_.clear();
     pair_matches_.clear();
@@ -292,6 +299,9 @@ KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64
   return impl_->adjustKeyframes(cameras, motions);
 }
 void PoseRefiner::forget(int64_t key) { impl_->forget(key); }
+void PoseRefiner::moveFeatures(int64_t key, const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>& move) {
+  impl_->moveFeatures(key, move);
+}
 void PoseRefiner::forgetAll() { impl_->forgetAll(); }
 size_t PoseRefiner::cachedImages() const { return impl_->cached(); }
 

@@ -28,6 +28,7 @@ KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64
 }
 
 void PoseRefiner::forget(int64_t) {}
+void PoseRefiner::moveFeatures(int64_t, const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>&) {}
 void PoseRefiner::forgetAll() {}
 size_t PoseRefiner::cachedImages() const { return 0; }
 

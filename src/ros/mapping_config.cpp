@@ -107,6 +107,7 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "rolling_shutter/max_interval_s", &o->rolling_shutter.max_interval_s);
   read(nh, "rolling_shutter/use_tracker_velocity", &o->rolling_shutter.use_tracker_velocity);
   read(nh, "rolling_shutter/translation", &o->rolling_shutter.translation);
+  read(nh, "rolling_shutter/from_adjusted_poses", &o->rolling_shutter.from_adjusted_poses);
 
   read(nh, "neighbour_depth/start_from_neighbours", &o->neighbour_depth.start_from_neighbours);
   read(nh, "neighbour_depth/start_iterations", &o->neighbour_depth.start_iterations);

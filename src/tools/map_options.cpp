@@ -46,6 +46,8 @@ bool setFusionOption(const std::string& name, const std::string& value, OnlineMa
   else if (name == "rolling_shutter_velocity")
     mapper->rolling_shutter.use_tracker_velocity = parseSwitch(name, value);
   else if (name == "rolling_shutter_translation") mapper->rolling_shutter.translation = parseSwitch(name, value);
+  else if (name == "rolling_shutter_from_adjusted_poses")
+    mapper->rolling_shutter.from_adjusted_poses = parseSwitch(name, value);
   else if (name == "rolling_shutter_max_interval_s")
     mapper->rolling_shutter.max_interval_s = parseValue<double>(name, value);
   else return false;
@@ -66,7 +68,8 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     nextOption(arguments, &i,
                {"quiet", "write_depth", "write_previews", "write_clouds", "write_confidence", "skip_to_newest",
                 "confidence", "confidence_again_with_more_views", "fuse_neighbours_again", "pose_refinement", "start_from_neighbours",
-                "geometric_refinement", "rolling_shutter_velocity", "rolling_shutter_translation"},
+                "geometric_refinement", "rolling_shutter_velocity", "rolling_shutter_translation",
+                "rolling_shutter_from_adjusted_poses"},
                &name, &value);
     if (name == "quiet") options.quiet = parseSwitch(name, value);
     else if (name == "write_depth") options.write_depth = parseSwitch(name, value);
@@ -229,6 +232,11 @@ std::string mapToolUsage() {
          "                       rectification and, with --rolling_shutter_translation (default\n"
          "                       1), each row's camera centre in the matching cost and the\n"
          "                       keyframe bundle adjustment (default 0)\n"
+         "  --rolling_shutter_from_adjusted_poses[=0|1]  with the keyframe bundle adjustment,\n"
+         "                       rectify each keyframe again with the turn rate of the adjusted\n"
+         "                       poses before and after it, and estimate its readers again\n"
+         "                       (default "
+      << (RollingShutterOptions().from_adjusted_poses ? 1 : 0) << ")\n"
          "  --queue_size N       keyframes waiting (default: all offline, 4 with --realtime)\n"
          "  --skip_to_newest[=0|1]  after a queue overflow take the newest keyframe (default 1)\n"
          "Pose refinement (before stereo; depth, clouds and map stay in the tracker's frame):\n"

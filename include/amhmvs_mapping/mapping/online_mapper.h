@@ -324,6 +324,12 @@ class OnlineMapper {
   size_t rollingShutterNotRectified() const { return rolling_shutter_not_rectified_; }
   // Of the rectified, those with the tracker's velocity (use_tracker_velocity).
   size_t rollingShutterFromTrackerVelocity() const { return rolling_shutter_from_tracker_velocity_; }
+  // rolling_shutter.from_adjusted_poses: images rectified again (each time counts).
+  size_t rollingShutterRectifiedAgain() const { return rolling_shutter_rectified_again_; }
+  // Called with a keyframe's id when the mapper replaced its image (rectified
+  // again), before anything reads the new one: an estimator that keeps
+  // images resident by key must forget(id), as for an evicted keyframe.
+  void setForgetImageFunction(std::function<void(int64_t)> forget) { forget_image_ = std::move(forget); }
 
   // Forgets every keyframe and empties the map.
   void reset();
@@ -384,6 +390,9 @@ class OnlineMapper {
     std::map<int64_t, PinholeCamera> stereo_sources;
     PinholeCamera stereo_reference;
     int pose_reestimates = 0;
+    // How often the reference's and the sources' images had been rectified
+    // again when it was estimated (rolling_shutter.from_adjusted_poses).
+    std::map<int64_t, int> image_revisions;
   };
   // True when the keyframe bundle adjustment has moved a source of the
   // record's estimate (relative to its reference) enough to change the depth.
@@ -431,6 +440,14 @@ class OnlineMapper {
   // keyframe before it when that one could not be and nothing read it yet),
   // and notes it as the motion anchor of the next.
   void rectifyRollingShutter(int64_t id);
+  // rolling_shutter.from_adjusted_poses: the angular velocity of each
+  // keyframe rectified from chords, from the adjusted poses around it; those
+  // that differ from their rectification's are due to be rectified again.
+  void planRectificationFromPoses(const std::map<int64_t, Eigen::Isometry3d>& poses);
+  // Rectifies the due keyframes again (their features move along); the
+  // depth maps that read them are then estimated again (stereoPosesMoved).
+  void rectifyDueAgain();
+  int imageRevision(int64_t id) const;
   // Drops a keyframe that left the store from every list and cache (not the map).
   struct Forgotten {
     bool was_waiting_for_sources = false;
@@ -501,6 +518,17 @@ class OnlineMapper {
   size_t rolling_shutter_rectified_ = 0;
   size_t rolling_shutter_not_rectified_ = 0;
   size_t rolling_shutter_from_tracker_velocity_ = 0;
+  // rolling_shutter.from_adjusted_poses: keyframes rectified from chords, as
+  // they came and the angular velocity their stored image is rectified with.
+  struct ChordRectified {
+    ImageU8 unrectified;
+    Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
+  };
+  std::map<int64_t, ChordRectified> chord_rectified_;
+  std::map<int64_t, Eigen::Vector3d> rectify_again_;  // due, with this angular velocity
+  std::map<int64_t, int> image_revisions_;            // times rectified again
+  size_t rolling_shutter_rectified_again_ = 0;
+  std::function<void(int64_t)> forget_image_;
 };
 
 }  // namespace amhmvs

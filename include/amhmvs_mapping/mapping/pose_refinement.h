@@ -31,6 +31,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -190,6 +191,9 @@ class PoseRefiner {
 
   // Drops the cached features and matches of an image key (its keyframe left the store).
   void forget(int64_t key);
+  // The image of `key` was resampled (rectified again): each cached
+  // feature's pixel p moves to move(p); its descriptor and matches stay.
+  void moveFeatures(int64_t key, const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>& move);
   void forgetAll();
   size_t cachedImages() const;
   const PoseRefinementOptions& options() const { return options_; }

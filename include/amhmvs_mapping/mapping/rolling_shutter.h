@@ -47,6 +47,19 @@ struct RollingShutterOptions {
   // session 19).
   bool use_tracker_velocity = false;
   bool translation = true;
+  // With the keyframe bundle adjustment (pose_refinement.h), a keyframe
+  // rectified from chords is rectified again from its adjusted poses: the
+  // mean of the chords to the adjusted keyframes before and after it (one
+  // side at the ends), as often as they move it by more than 1e-4 rad over
+  // a readout. The depth maps that read a re-rectified image are estimated
+  // again (pose_refinement's max_pose_reestimates), and its cached features
+  // move with it (rectifiedAgain). On the realism room the tracker's chords
+  // miss the turn rate by 0.4-5 deg/s, the adjusted ones by 0.1-1.4 inside
+  // the run (1.2-2.7 at its ends). Off by default: at 320 px (8 views) the
+  // map gains 1.7 points on average (7 of 8 seeds), at 160 px (6 views) it
+  // loses 4.2, where even the true turn rate loses 8.4 (README "Rectified
+  // again from the adjusted poses").
+  bool from_adjusted_poses = false;
 
   bool enabled() const { return readout_s > 0; }
   // Empty when valid; otherwise one line per problem.
@@ -58,5 +71,12 @@ struct RollingShutterOptions {
 // the input take the nearest input pixel.
 ImageU8 rectifyRollingShutter(const ImageU8& image, const PinholeCamera& camera, const Eigen::Vector3d& angular_velocity,
                               double readout_s);
+
+// Where a point at `pixel` of the image rectified with angular velocity
+// `used` lies in the same (unrectified) image rectified with `wanted`: its
+// ray as the rolling shutter saw it, then rectified with `wanted`. Moves
+// features found in one rectification into the next.
+Eigen::Vector2d rectifiedAgain(const Eigen::Vector2d& pixel, const PinholeCamera& camera, const Eigen::Vector3d& used,
+                               const Eigen::Vector3d& wanted, double readout_s);
 
 }  // namespace amhmvs
