@@ -243,7 +243,9 @@ void OnlineMapper::planRectificationFromPoses(const std::map<int64_t, Eigen::Iso
 
 void OnlineMapper::rectifyDueAgain() {
   const double readout_s = options_.rolling_shutter.readout_s;
-  for (const auto& [id, wanted] : rectify_again_) {
+  for (const auto& due : rectify_again_) {
+    const int64_t id = due.first;
+    const Eigen::Vector3d wanted = due.second;  // a variable, not a binding: the lambda below captures it
     const auto rectified = chord_rectified_.find(id);
     if (rectified == chord_rectified_.end() || !store_.contains(id)) continue;
     const PinholeCamera camera = store_.keyframe(id).camera;
