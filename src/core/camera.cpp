@@ -103,9 +103,14 @@ RelativePose relativePose(const PinholeCamera& reference, const PinholeCamera& s
 }
 
 Eigen::Vector3d cameraAngularVelocity(const PinholeCamera& earlier, const PinholeCamera& later, double seconds) {
-  // Camera-to-world rotations are the transposes of PinholeCamera::R:
-  // R_prev^T R in camera-to-world terms (the turn in the camera's own frame).
-  const Eigen::AngleAxisd turn(Eigen::Matrix3d(earlier.R * later.R.transpose()));
+  // Camera-to-world rotations are the transposes of PinholeCamera::R.
+  return cameraAngularVelocity(Eigen::Matrix3d(earlier.R.transpose()), Eigen::Matrix3d(later.R.transpose()), seconds);
+}
+
+Eigen::Vector3d cameraAngularVelocity(const Eigen::Matrix3d& earlier_to_world, const Eigen::Matrix3d& later_to_world,
+                                      double seconds) {
+  // R_prev^T R: the turn in the camera's own frame.
+  const Eigen::AngleAxisd turn(Eigen::Matrix3d(earlier_to_world.transpose() * later_to_world));
   return turn.angle() * turn.axis() / seconds;
 }
 

@@ -225,9 +225,8 @@ void OnlineMapper::planRectificationFromPoses(const std::map<int64_t, Eigen::Iso
     const auto addChord = [&](size_t earlier, size_t later) {
       const double seconds = by_time[later].first - by_time[earlier].first;
       if (!(seconds > 0) || seconds > options_.rolling_shutter.max_interval_s) return;
-      const Eigen::AngleAxisd turn(poses.at(by_time[earlier].second).linear().transpose() *
-                                   poses.at(by_time[later].second).linear());
-      sum += turn.angle() * turn.axis() / seconds;
+      sum += cameraAngularVelocity(poses.at(by_time[earlier].second).linear(), poses.at(by_time[later].second).linear(),
+                                   seconds);
       ++chords;
     };
     if (i > 0) addChord(i - 1, i);

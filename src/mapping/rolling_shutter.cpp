@@ -73,8 +73,7 @@ ImageU8 rectifyRollingShutter(const ImageU8& image, const PinholeCamera& camera,
   if (readout_s <= 0 || !(angular_velocity.norm() > 0) || image.height < 2) return image;
   const TurningRows rows(camera, angular_velocity, readout_s);
   const auto rolling_shutter_position = [&](int u, int v, double* su, double* sv) {
-    const Eigen::Vector3d ray((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0);
-    const Eigen::Vector3d seen = rows.seen(ray, v, sv);
+    const Eigen::Vector3d seen = rows.seen(camera.backproject(u, v, 1.0), v, sv);
     *su = camera.fx * seen.x() / seen.z() + camera.cx;
   };
   return remapBilinear(image, rolling_shutter_position, RemapBorder::kClamp);
@@ -83,18 +82,12 @@ ImageU8 rectifyRollingShutter(const ImageU8& image, const PinholeCamera& camera,
 Eigen::Vector2d rectifiedAgain(const Eigen::Vector2d& pixel, const PinholeCamera& camera, const Eigen::Vector3d& used,
                                const Eigen::Vector3d& wanted, double readout_s) {
   if (readout_s <= 0 || camera.height < 2) return pixel;
-  const Eigen::Vector3d ray((pixel.x() - camera.cx) / camera.fx, (pixel.y() - camera.cy) / camera.fy, 1.0);
-  double row = pixel.y();
-  // The rectification with `used` took this pixel from `seen` in `row`
-  // (no turn: the pixel as it is).
-  const Eigen::Vector3d seen = used.norm() > 0 ? TurningRows(camera, used, readout_s).seen(ray, pixel.y(), &row) : ray;
-  const TurningRows rows(camera, wanted, readout_s);
-  // The rectification with `wanted` shows `seen` (exposed at row's time) at
-  // Exp(w_wanted t(row)) seen.
-  const Eigen::Vector3d shown =
-      wanted.norm() > 0 ? Eigen::Vector3d(Eigen::AngleAxisd(wanted.norm() * rows.rowTime(row), wanted.normalized()) * seen)
-                        : seen;
-  return {camera.fx * shown.x() / shown.z() + camera.cx, camera.fy * shown.y() / shown.z() + camera.cy};
+  // The rectification with `used` took this pixel from `seen`, exposed in
+  // `row`; the one with `wanted` shows `seen` at Exp(+w_wanted t(row)) seen.
+  double row = 0;
+  const Eigen::Vector3d seen =
+      TurningRows(camera, used, readout_s).seen(camera.backproject(pixel.x(), pixel.y(), 1.0), pixel.y(), &row);
+  return camera.project(TurningRows(camera, -wanted, readout_s).turned(seen, row));
 }
 
 }  // namespace amhmvs

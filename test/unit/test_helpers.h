@@ -31,6 +31,20 @@ inline PinholeCamera centredCamera(int width, int height, double focal) {
   return camera;
 }
 
+// Mean absolute grey difference of two images of one size, over the pixels
+// at least `margin` from the border.
+inline double meanDifference(const ImageU8& a, const ImageU8& b, int margin = 0) {
+  double sum = 0;
+  int count = 0;
+  for (int y = margin; y < a.height - margin; ++y) {
+    for (int x = margin; x < a.width - margin; ++x) {
+      for (int c = 0; c < a.channels; ++c) sum += std::abs(static_cast<int>(a.at(x, y, c)) - b.at(x, y, c));
+      count += a.channels;
+    }
+  }
+  return sum / count;
+}
+
 // Root of the shared real data: $AMHMVS_DATA_DIR, else <source dir>/../shared/data.
 inline std::string dataDir() {
   if (const char* env = std::getenv("AMHMVS_DATA_DIR")) return env;

@@ -13,6 +13,7 @@
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mapping/online_mapper.h"
 #include "pose_error.h"
+#include "test_helpers.h"
 #include "synthetic_problem.h"
 
 namespace amhmvs {
@@ -132,11 +133,7 @@ TEST(OnlineMapperPoseRefinement, RollingShutterRectifiedAgainFromTheAdjustedPose
     keyframe.camera = test::withPoseError(cameraAt(stamp), {0.002 * id, -0.003, 0.002}, error_axes[id], 0.4);
     keyframes.push_back(keyframe);
   }
-  const auto meanDifference = [](const ImageU8& a, const ImageU8& b) {
-    double sum = 0;
-    for (size_t i = 0; i < a.data.size(); ++i) sum += std::abs(static_cast<int>(a.data[i]) - b.data[i]);
-    return sum / a.data.size();
-  };
+  using test::meanDifference;
 
   // Per keyframe, the reference pixels its last estimate read.
   using SeenImages = std::map<int64_t, std::vector<uint8_t>>;

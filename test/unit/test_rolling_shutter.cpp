@@ -35,19 +35,6 @@ TEST(RollingShutter, AngularVelocityIsTheTurnInTheCameraFramePerSecond) {
   EXPECT_LT((velocity - turn / 0.5).norm(), 1e-12);
 }
 
-// Mean absolute grey difference over the pixels at least `margin` from the border.
-double meanDifference(const ImageU8& a, const ImageU8& b, int margin) {
-  double sum = 0;
-  int count = 0;
-  for (int y = margin; y < a.height - margin; ++y) {
-    for (int x = margin; x < a.width - margin; ++x) {
-      for (int c = 0; c < a.channels; ++c) sum += std::abs(static_cast<int>(a.at(x, y, c)) - b.at(x, y, c));
-      count += a.channels;
-    }
-  }
-  return sum / count;
-}
-
 // A camera turning at a constant rate about its own centre (pure rotation:
 // what the rectification models exactly) in the synthetic room.
 TEST(RollingShutter, RectifiedImageIsTheGlobalShutterImageOfATurningCamera) {
@@ -67,9 +54,9 @@ TEST(RollingShutter, RectifiedImageIsTheGlobalShutterImageOfATurningCamera) {
   const ImageU8 there_and_back =
       rectifyRollingShutter(rectifyRollingShutter(global, start, angular_velocity, rolling.rolling_shutter_s), start,
                             -angular_velocity, rolling.rolling_shutter_s);
-  const double before = meanDifference(raw, global, 6), after = meanDifference(rectified, global, 6);
-  const double floor = meanDifference(there_and_back, global, 6);
-  const double wrong_way = meanDifference(rectifyRollingShutter(raw, start, -angular_velocity, rolling.rolling_shutter_s), global, 6);
+  const double before = test::meanDifference(raw, global, 6), after = test::meanDifference(rectified, global, 6);
+  const double floor = test::meanDifference(there_and_back, global, 6);
+  const double wrong_way = test::meanDifference(rectifyRollingShutter(raw, start, -angular_velocity, rolling.rolling_shutter_s), global, 6);
   std::printf("grey levels from the global-shutter image: as it came %.2f, rectified %.2f, the other way %.2f, "
               "resampling there and back %.2f\n", before, after, wrong_way, floor);
   // Measured: 14.76, 5.00, 21.58, 7.24 (one resampling is what is left).

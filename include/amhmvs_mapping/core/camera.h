@@ -96,6 +96,9 @@ RelativePose relativePose(const PinholeCamera& reference, const PinholeCamera& s
 // The mean angular velocity in the later camera's frame (rad/s) of a camera
 // that moved from `earlier` to `later` in `seconds` (> 0).
 Eigen::Vector3d cameraAngularVelocity(const PinholeCamera& earlier, const PinholeCamera& later, double seconds);
+// The same from the cameras' camera-to-world rotations.
+Eigen::Vector3d cameraAngularVelocity(const Eigen::Matrix3d& earlier_to_world, const Eigen::Matrix3d& later_to_world,
+                                      double seconds);
 
 // Angle in radians between the rays from two camera centres to a world point.
 double triangulationAngle(const Eigen::Vector3d& center_a, const Eigen::Vector3d& center_b,
