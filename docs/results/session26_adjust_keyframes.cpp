@@ -5,6 +5,14 @@
 // the truth. Arguments after the file: finest_feature_size_px (default 0)
 // and min_explained_rms_px (default 0.25; 0 moves keyframes started at the
 // true poses as well, instead of confirming them).
+// Session 28, from the environment: VELOCITIES=FILE (an MVSNet velocities.txt)
+// and READOUT=SECONDS give each keyframe its rolling shutter's linear velocity
+// (each feature seen from its row's centre, as the pipeline with
+// --rolling_shutter_velocity=1); PRIOR_ROT (degrees) and PRIOR_POS (metres)
+// replace the tracker prior's sigmas; VELOCITY_SIGMA_RAD_S and
+// VELOCITY_SIGMA_M_S solve each keyframe's velocity too (VelocityPrior).
+// Features for it from images rectified
+// with the same velocities: session28_rectify_with_velocities.cpp.
 // Build against the dev build's core:
 //   g++ -O2 -std=c++17 -Iinclude -I/usr/include/eigen3 docs/results/session26_adjust_keyframes.cpp \
 //       -Lbuild_cpu/devel/lib -lamhmvs_core -o /tmp/adjust_keyframes
@@ -16,6 +24,7 @@
 
 #include "amhmvs_mapping/mapping/keyframe_bundle_adjustment.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
+#include "amhmvs_mapping/io/mvsnet_folder.h"
 
 int main(int argc, char** argv) {
   using namespace amhmvs;
@@ -60,12 +69,34 @@ int main(int argc, char** argv) {
       matches.push_back(pair);
     }
   }
+  if (const char* vel = std::getenv("VELOCITIES")) {
+    const char* readout_text = std::getenv("READOUT");
+    const double readout = readout_text ? std::atof(readout_text) : 0;
+    for (auto& [id, v] : readMvsnetVelocities(vel)) {
+      if (!keyframes.count(id)) continue;
+      keyframes[id].motion.velocity = v.linear;
+      keyframes[id].motion.readout_s = readout;
+    }
+  }
   KeyframeBundleAdjustmentSettings settings;
+  if (const char* p = std::getenv("PRIOR_POS")) settings.prior_position_sigma_m = std::atof(p);
+  if (const char* p = std::getenv("PRIOR_ROT")) settings.prior_rotation_sigma_rad = std::atof(p) * M_PI / 180;
+  // VELOCITY_SIGMA_RAD_S and VELOCITY_SIGMA_M_S (both): each keyframe's
+  // velocity solved too, with these as the noise of the given velocities.
+  const char* angular_sigma = std::getenv("VELOCITY_SIGMA_RAD_S");
+  const char* linear_sigma = std::getenv("VELOCITY_SIGMA_M_S");
+  for (auto& entry : keyframes) {
+    if (angular_sigma && linear_sigma)
+      entry.second.velocity = {std::atof(angular_sigma), std::atof(linear_sigma), CameraVelocity()};
+  }
   if (argc > 2) settings.finest_feature_size_px = std::atof(argv[2]);
   if (argc > 3) settings.min_explained_rms_px = std::atof(argv[3]);
   const KeyframeBundleAdjustmentResult result = adjustKeyframes(keyframes, matches, settings);
   std::cerr << "solved " << result.solved << ", tracks " << result.tracks << ", confirmed " << result.confirmed
             << ", rms " << result.rms_before_px << " -> " << result.rms_after_px << " px\n";
+  for (const auto& [id, correction] : result.velocity_corrections)
+    std::cerr << "velocity correction " << id << ": " << correction.angular.transpose() << " rad/s, "
+              << correction.linear.transpose() << " m/s\n";
   std::cout << std::setprecision(17);
   for (const auto& [id, pose] : result.poses) {
     std::cout << id;

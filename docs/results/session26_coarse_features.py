@@ -15,10 +15,11 @@ depth_gt/), OUT an `amhmvs_map` output (depth/, clouds/, keyframe_poses.txt).
       each consecutive keyframe pair's relative rotation error of the map's
       poses (keyframe_poses.txt) against the truth, as a rotation vector in
       the first camera's frame (degrees; y is the yaw of a sideways walk).
-  export DATA FILE [--truth] [--max_size S]
-      SIFT features (OpenCV, all of them; optionally only those of size <= S)
-      of every image, their sizes, and the RANSAC inlier matches of each pair
-      at most 3 apart, with the tracker's cameras (or the true ones with
+  export DATA FILE [--truth] [--max_size S] [--gap G] [--features N]
+      SIFT features (OpenCV, all of them; optionally only those of size <= S,
+      or the N strongest as the pipeline's max_features) of every image, their
+      sizes, and the RANSAC inlier matches of each pair at most G (3) apart,
+      with the tracker's cameras (or the true ones with
       --truth): the input of session26_adjust_keyframes.cpp, which runs
       mapping/keyframe_bundle_adjustment.h on it. Then `pairs` on its output
       (POSES given as DATA:POSES with --poses).
@@ -93,7 +94,7 @@ def pairs(runs, poses_file=False):
         print(out, ' '.join(errors))
 
 
-def export(data, path, use_truth, max_size):
+def export(data, path, use_truth, max_size, gap=3, count=0):
     import cv2
     features = {}
     with open(path, 'w') as out:
@@ -101,7 +102,7 @@ def export(data, path, use_truth, max_size):
         while os.path.exists('%s/images/%08d.png' % (data, k)):
             world_to_camera, intrinsics = read_cam('%s/%s/%08d_cam.txt' % (data, 'cams_gt' if use_truth else 'cams', k))
             image = cv2.imread('%s/images/%08d.png' % (data, k), cv2.IMREAD_GRAYSCALE)
-            keypoints, descriptors = cv2.SIFT_create(0).detectAndCompute(image, None)
+            keypoints, descriptors = cv2.SIFT_create(count).detectAndCompute(image, None)
             keep = [i for i, p in enumerate(keypoints) if p.size <= max_size]
             keypoints, descriptors = [keypoints[i] for i in keep], descriptors[keep]
             pixels = np.array([p.pt for p in keypoints]) - SIFT_UPSAMPLING_OFFSET
@@ -113,7 +114,7 @@ def export(data, path, use_truth, max_size):
             out.write('S %d %d %s\n' % (k, len(keypoints), ' '.join('%r' % p.size for p in keypoints)))
             k += 1
         for i in range(k):
-            for j in range(i + 1, min(k, i + 4)):
+            for j in range(i + 1, min(k, i + 1 + gap)):
                 (Ki, pi, di), (Kj, pj, dj) = features[i], features[j]
                 best = {}
                 for first, second in cv2.BFMatcher(cv2.NORM_L2).knnMatch(di, dj, k=2):
@@ -136,6 +137,8 @@ if __name__ == '__main__':
         pairs([a for a in arguments if a != '--poses'], '--poses' in arguments)
     elif command == 'export':
         max_size = float(arguments[arguments.index('--max_size') + 1]) if '--max_size' in arguments else np.inf
-        export(arguments[0], arguments[1], '--truth' in arguments, max_size)
+        def number(flag, default):
+            return type(default)(arguments[arguments.index(flag) + 1]) if flag in arguments else default
+        export(arguments[0], arguments[1], '--truth' in arguments, max_size, number('--gap', 3), number('--features', 0))
     else:
         sys.exit(__doc__)

@@ -163,8 +163,12 @@ void OnlineMapper::rectifyRollingShutter(int64_t id) {
   const RollingShutterOptions& options = options_.rolling_shutter;
   if (!options.enabled()) return;
   const Keyframe& stored = store_.keyframe(id);
+  const PoseRefinementOptions& refinement = options_.pose_refinement;
+  const bool adjusted = refinement.enabled && refinement.keyframe_bundle_adjustment;
   if (options.use_tracker_velocity && stored.velocity) {  // no estimate from the previous pose
     motion_anchor_ = {true, id, stored.stamp, stored.camera, true, estimates_started_};
+    if (adjusted && options.solvesTrackerVelocity())
+      chord_rectified_[id] = {stored.image, stored.velocity->angular, *stored.velocity};
     store_.replaceImage(id, amhmvs::rectifyRollingShutter(stored.image, stored.camera, stored.velocity->angular,
                                                           options.readout_s));
     if (options.translation) store_.setMotion(id, {stored.velocity->linear, options.readout_s});
@@ -180,12 +184,10 @@ void OnlineMapper::rectifyRollingShutter(int64_t id) {
     return;
   }
   const Eigen::Vector3d angular_velocity = cameraAngularVelocity(previous.camera, stored.camera, interval);
-  const PoseRefinementOptions& refinement = options_.pose_refinement;
-  const bool rectified_again_later =
-      options.from_adjusted_poses && refinement.enabled && refinement.keyframe_bundle_adjustment;
+  const bool rectified_again_later = options.from_adjusted_poses && adjusted;
   const auto rectifyStored = [&](int64_t key) {
     const Keyframe& keyframe = store_.keyframe(key);
-    if (rectified_again_later) chord_rectified_[key] = {keyframe.image, angular_velocity};
+    if (rectified_again_later) chord_rectified_[key] = {keyframe.image, angular_velocity, std::nullopt};
     store_.replaceImage(key, amhmvs::rectifyRollingShutter(keyframe.image, keyframe.camera, angular_velocity,
                                                            options.readout_s));
     ++rolling_shutter_rectified_;
@@ -199,11 +201,51 @@ void OnlineMapper::rectifyRollingShutter(int64_t id) {
   }
 }
 
+namespace {
+// A change below this much turn over a readout moves no pixel by more than a
+// few hundredths (1e-4 rad x a focal length of a few hundred px); nor does
+// this much shift of a row's centre (1e-4 m at 2 m).
+constexpr double kMinRectificationChange = 1e-4;
+}  // namespace
+
+bool OnlineMapper::reestimatesLeft(int64_t id) const {
+  const auto record = estimates_.find(id);
+  return record == estimates_.end() ||
+         record->second.pose_reestimates < options_.pose_refinement.max_pose_reestimates;
+}
+
+std::map<int64_t, VelocityPrior> OnlineMapper::velocityPriors() const {
+  const RollingShutterOptions& options = options_.rolling_shutter;
+  std::map<int64_t, VelocityPrior> priors;
+  for (const auto& [id, rectified] : chord_rectified_) {
+    if (!rectified.tracker_velocity || !store_.contains(id)) continue;
+    VelocityPrior& prior = priors[id];
+    prior.angular_sigma_rad_s = options.tracker_velocity_sigma_rad_s;
+    prior.linear_sigma_m_s = options.tracker_velocity_sigma_m_s;
+    prior.offset.angular = rectified.angular_velocity - rectified.tracker_velocity->angular;
+    prior.offset.linear = store_.entry(id).motion.velocity - rectified.tracker_velocity->linear;
+  }
+  return priors;
+}
+
+void OnlineMapper::planRectificationFromVelocities(const std::map<int64_t, CameraVelocity>& corrections) {
+  const double readout_s = options_.rolling_shutter.readout_s;
+  for (const auto& [id, correction] : corrections) {
+    const auto rectified = chord_rectified_.find(id);
+    if (rectified == chord_rectified_.end() || !store_.contains(id)) continue;
+    // A depth map that is not estimated again keeps the image it was estimated from.
+    if (!reestimatesLeft(id) || std::max(correction.angular.norm(), correction.linear.norm()) * readout_s <=
+                                    kMinRectificationChange) {
+      rectify_again_.erase(id);
+      continue;
+    }
+    rectify_again_[id] = {rectified->second.angular_velocity + correction.angular,
+                          Eigen::Vector3d(store_.entry(id).motion.velocity + correction.linear)};
+  }
+}
+
 void OnlineMapper::planRectificationFromPoses(const std::map<int64_t, Eigen::Isometry3d>& poses) {
   if (chord_rectified_.empty()) return;
-  // A change below this much turn over a readout moves no pixel by more
-  // than a few hundredths (1e-4 rad x a focal length of a few hundred px).
-  constexpr double kMinChangeRad = 1e-4;
   const double readout_s = options_.rolling_shutter.readout_s;
   std::vector<std::pair<double, int64_t>> by_time;
   for (const auto& entry : poses)
@@ -211,10 +253,10 @@ void OnlineMapper::planRectificationFromPoses(const std::map<int64_t, Eigen::Iso
   std::sort(by_time.begin(), by_time.end());
   for (size_t i = 0; i < by_time.size(); ++i) {
     const auto rectified = chord_rectified_.find(by_time[i].second);
-    if (rectified == chord_rectified_.end()) continue;
+    // Keyframes with the tracker's velocity: planRectificationFromVelocities.
+    if (rectified == chord_rectified_.end() || rectified->second.tracker_velocity) continue;
     // A depth map that is not estimated again keeps the image it was estimated from.
-    const auto record = estimates_.find(rectified->first);
-    if (record != estimates_.end() && record->second.pose_reestimates >= options_.pose_refinement.max_pose_reestimates) {
+    if (!reestimatesLeft(rectified->first)) {
       rectify_again_.erase(rectified->first);
       continue;
     }
@@ -233,8 +275,8 @@ void OnlineMapper::planRectificationFromPoses(const std::map<int64_t, Eigen::Iso
     if (i + 1 < by_time.size()) addChord(i, i + 1);
     if (chords == 0) continue;
     const Eigen::Vector3d wanted = sum / chords;
-    if ((wanted - rectified->second.angular_velocity).norm() * readout_s > kMinChangeRad)
-      rectify_again_[rectified->first] = wanted;
+    if ((wanted - rectified->second.angular_velocity).norm() * readout_s > kMinRectificationChange)
+      rectify_again_[rectified->first] = {wanted, std::nullopt};
     else
       rectify_again_.erase(rectified->first);
   }
@@ -244,7 +286,7 @@ void OnlineMapper::rectifyDueAgain() {
   const double readout_s = options_.rolling_shutter.readout_s;
   for (const auto& due : rectify_again_) {
     const int64_t id = due.first;
-    const Eigen::Vector3d wanted = due.second;  // a variable, not a binding: the lambda below captures it
+    const Eigen::Vector3d wanted = due.second.angular_velocity;  // a variable: the lambda below captures it
     const auto rectified = chord_rectified_.find(id);
     if (rectified == chord_rectified_.end() || !store_.contains(id)) continue;
     const PinholeCamera camera = store_.keyframe(id).camera;
@@ -255,6 +297,7 @@ void OnlineMapper::rectifyDueAgain() {
       pose_refiner_->moveFeatures(
           id, [&](const Eigen::Vector2d& pixel) { return rectifiedAgain(pixel, camera, used, wanted, readout_s); });
     rectified->second.angular_velocity = wanted;
+    if (due.second.linear_velocity) store_.setMotion(id, {*due.second.linear_velocity, readout_s});
     ++image_revisions_[id];
     ++rolling_shutter_rectified_again_;
   }
@@ -762,7 +805,7 @@ bool OnlineMapper::adjustKeyframePoses(int64_t id, DepthProblem* problem) {
     cameras[stored] = store_.keyframe(stored).camera;
     if (store_.entry(stored).motion.rolling()) motions[stored] = store_.entry(stored).motion;
   }
-  const KeyframeBundleAdjustmentResult adjusted = pose_refiner_->adjustKeyframes(cameras, motions);
+  const KeyframeBundleAdjustmentResult adjusted = pose_refiner_->adjustKeyframes(cameras, motions, velocityPriors());
   if (!adjusted.solved) return false;
   // Every refined pair of two adjusted keyframes at their adjusted relative pose.
   std::vector<std::pair<int64_t, int64_t>> pairs;
@@ -780,6 +823,7 @@ bool OnlineMapper::adjustKeyframePoses(int64_t id, DepthProblem* problem) {
   map_poses_ = adjusted.poses;
   placeMapPoses();
   planRectificationFromPoses(adjusted.poses);
+  planRectificationFromVelocities(adjusted.velocity_corrections);
   return true;
 }
 

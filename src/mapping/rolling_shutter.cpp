@@ -14,6 +14,10 @@ std::string RollingShutterOptions::validate() const {
   if (!(readout_s >= 0 && readout_s <= 1)) out << "readout_s must be in [0, 1] seconds, got " << readout_s << "\n";
   if (!(max_interval_s > 0 && std::isfinite(max_interval_s)))
     out << "max_interval_s must be positive and finite, got " << max_interval_s << "\n";
+  if (!(tracker_velocity_sigma_rad_s >= 0 && std::isfinite(tracker_velocity_sigma_rad_s)))
+    out << "tracker_velocity_sigma_rad_s must be >= 0 and finite, got " << tracker_velocity_sigma_rad_s << "\n";
+  if (!(tracker_velocity_sigma_m_s >= 0 && std::isfinite(tracker_velocity_sigma_m_s)))
+    out << "tracker_velocity_sigma_m_s must be >= 0 and finite, got " << tracker_velocity_sigma_m_s << "\n";
   return out.str();
 }
 

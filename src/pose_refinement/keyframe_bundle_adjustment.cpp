@@ -27,14 +27,41 @@ struct ReprojectionResidual {
 
   template <typename T>
   bool operator()(const T* w, const T* dc, const T* point, T* residual) const {
+    return pixelResidual(inCamera(w, dc, point), residual);
+  }
+  // The point in the corrected camera's frame, seen from the row's centre.
+  template <typename T>
+  Vector3<T> inCamera(const T* w, const T* dc, const T* point) const {
     const Vector3<T> offset(point[0] - (T(centre[0]) + dc[0]), point[1] - (T(centre[1]) + dc[1]),
                             point[2] - (T(centre[2]) + dc[2]));
-    const Vector3<T> in_camera =
-        correctedRotation(w, rotation).transpose() * offset - row_offset.cast<T>();
+    return correctedRotation(w, rotation).transpose() * offset - row_offset.cast<T>();
+  }
+  template <typename T>
+  bool pixelResidual(const Vector3<T>& in_camera, T* residual) const {
     if (!(in_camera[2] > T(0))) return false;  // behind the camera: the step is refused
     residual[0] = (T(fx) * in_camera[0] / in_camera[2] + T(cx) - T(pixel.x())) * T(inverse_sigma);
     residual[1] = (T(fy) * in_camera[1] / in_camera[2] + T(cy) - T(pixel.y())) * T(inverse_sigma);
     return true;
+  }
+};
+
+// The same for a rolling-shutter keyframe whose velocity is solved as well
+// (VelocityPrior): its image was rectified with a turn rate off by dw and its
+// rows' centres moved with a velocity off by dv, so the row at time tau sees
+// the point turned by Exp(-dw tau) and shifted by dv tau more (first order
+// in dw and dv).
+struct MovingReprojectionResidual {
+  ReprojectionResidual still;
+  double row_time;  // tau of the observation's row, seconds from the middle row
+
+  template <typename T>
+  bool operator()(const T* w, const T* dc, const T* dw, const T* dv, const T* point, T* residual) const {
+    Vector3<T> shifted = still.inCamera(w, dc, point);
+    for (int i = 0; i < 3; ++i) shifted[i] -= dv[i] * T(row_time);
+    const T back_turn[3] = {-dw[0] * T(row_time), -dw[1] * T(row_time), -dw[2] * T(row_time)};
+    Vector3<T> in_camera;
+    ceres::AngleAxisRotatePoint(back_turn, shifted.data(), in_camera.data());
+    return still.pixelResidual(in_camera, residual);
   }
 };
 
@@ -158,6 +185,7 @@ bool triangulate(const std::map<int64_t, BundleKeyframe>& keyframes, double min_
 
 struct Correction {
   double w[3] = {0, 0, 0}, dc[3] = {0, 0, 0};
+  double dw[3] = {0, 0, 0}, dv[3] = {0, 0, 0};  // velocity corrections (solve_velocities)
 };
 
 ReprojectionResidual residualOf(const BundleKeyframe& keyframe, const Observation& observation) {
@@ -166,10 +194,40 @@ ReprojectionResidual residualOf(const BundleKeyframe& keyframe, const Observatio
           keyframe.motion.rowOffset(observation.pixel.y(), camera.height), 1 / observation.sigma_px};
 }
 
+bool solvesVelocity(const BundleKeyframe& keyframe) {
+  return keyframe.velocity.solved() && keyframe.motion.readout_s > 0 && keyframe.camera.height > 1;
+}
+
+// (the velocity's offset from the tracker's + its correction) / the tracker's noise.
+struct VelocityPriorResidual {
+  VelocityPrior prior;
+
+  template <typename T>
+  bool operator()(const T* dw, const T* dv, T* residual) const {
+    for (int i = 0; i < 3; ++i) {
+      residual[i] = (T(prior.offset.angular[i]) + dw[i]) / T(prior.angular_sigma_rad_s);
+      residual[3 + i] = (T(prior.offset.linear[i]) + dv[i]) / T(prior.linear_sigma_m_s);
+    }
+    return true;
+  }
+};
+
+MovingReprojectionResidual movingResidualOf(const BundleKeyframe& keyframe, const Observation& observation) {
+  const double slope = keyframe.motion.readout_s / (keyframe.camera.height - 1);
+  return {residualOf(keyframe, observation), slope * observation.pixel.y() - 0.5 * keyframe.motion.readout_s};
+}
+
 // Reprojection error in pixels (infinite behind the camera).
-double errorPx(const ReprojectionResidual& residual, const Correction& correction, const Eigen::Vector3d& point) {
+double errorPx(const BundleKeyframe& keyframe, const Observation& observation, const Correction& correction,
+               const Eigen::Vector3d& point) {
   double value[2];
-  if (!residual(correction.w, correction.dc, point.data(), value)) return INFINITY;
+  const ReprojectionResidual residual = residualOf(keyframe, observation);
+  const bool behind =
+      solvesVelocity(keyframe)
+          ? !movingResidualOf(keyframe, observation)(correction.w, correction.dc, correction.dw, correction.dv,
+                                                      point.data(), value)
+          : !residual(correction.w, correction.dc, point.data(), value);
+  if (behind) return INFINITY;
   return std::hypot(value[0], value[1]) / residual.inverse_sigma;
 }
 
@@ -195,17 +253,34 @@ bool solve(const std::map<int64_t, BundleKeyframe>& keyframes, const KeyframeBun
         robust = new ceres::CauchyLoss(scale);
       else
         robust = new ceres::HuberLoss(scale);
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 3, 3, 3>(new ReprojectionResidual(
-                                   residualOf(keyframes.at(observation.key), observation))),
-                               robust, correction.w, correction.dc, track.point.data());
+      const BundleKeyframe& keyframe = keyframes.at(observation.key);
+      if (solvesVelocity(keyframe))
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<MovingReprojectionResidual, 2, 3, 3, 3, 3, 3>(
+                new MovingReprojectionResidual(movingResidualOf(keyframe, observation))),
+            robust, correction.w, correction.dc, correction.dw, correction.dv, track.point.data());
+      else
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 3, 3, 3>(
+                                     new ReprojectionResidual(residualOf(keyframe, observation))),
+                                 robust, correction.w, correction.dc, track.point.data());
     }
   }
   if (problem.NumResidualBlocks() == 0) return false;
   addPosePriors(settings.prior_rotation_sigma_rad, settings.prior_position_sigma_m, corrections, &problem);
   for (auto& entry : *corrections) {
+    const BundleKeyframe& keyframe = keyframes.at(entry.first);
+    const bool moving = solvesVelocity(keyframe);
+    if (moving)
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<VelocityPriorResidual, 6, 3, 3>(
+                                   new VelocityPriorResidual{keyframe.velocity}),
+                               nullptr, entry.second.dw, entry.second.dv);
     if (!held.count(entry.first)) continue;
     problem.SetParameterBlockConstant(entry.second.w);
     problem.SetParameterBlockConstant(entry.second.dc);
+    if (moving) {
+      problem.SetParameterBlockConstant(entry.second.dw);
+      problem.SetParameterBlockConstant(entry.second.dv);
+    }
   }
   return solveProblem(&problem, settings.max_iterations, ceres::SPARSE_SCHUR, ceres::DENSE_SCHUR);
 }
@@ -234,13 +309,15 @@ std::map<int64_t, ErrorSums> keyframeErrors(const std::map<int64_t, BundleKeyfra
     if (tracks[t].activeCount() < 2) continue;
     for (const Observation& observation : tracks[t].observations) {
       if (!observation.active) continue;
-      const ReprojectionResidual residual = residualOf(keyframes.at(observation.key), observation);
+      const BundleKeyframe& keyframe = keyframes.at(observation.key);
       const auto correction = corrections.find(observation.key);
       ErrorSums& sum = sums[observation.key];
-      sum.before += std::pow(std::min(errorPx(residual, none, initial[t].point), 1e3), 2);
-      sum.after += std::pow(
-          std::min(errorPx(residual, correction != corrections.end() ? correction->second : none, tracks[t].point), 1e3),
-          2);
+      sum.before += std::pow(std::min(errorPx(keyframe, observation, none, initial[t].point), 1e3), 2);
+      sum.after += std::pow(std::min(errorPx(keyframe, observation,
+                                             correction != corrections.end() ? correction->second : none,
+                                             tracks[t].point),
+                                     1e3),
+                            2);
       ++sum.count;
     }
   }
@@ -267,8 +344,8 @@ KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, BundleKey
   // the observations that stay.
   for (Track& track : tracks) {
     for (Observation& observation : track.observations) {
-      const ReprojectionResidual residual = residualOf(keyframes.at(observation.key), observation);
-      if (observation.active && errorPx(residual, corrections[observation.key], track.point) > 2 * settings.huber_px)
+      if (observation.active && errorPx(keyframes.at(observation.key), observation, corrections[observation.key],
+                                        track.point) > 2 * settings.huber_px)
         observation.active = false;
     }
     const bool too_short = track.activeCount() < settings.min_final_track_length;
@@ -303,9 +380,12 @@ KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, BundleKey
   result.observations = all.count;
   result.rms_before_px = all.rmsBeforePx();
   result.rms_after_px = all.rmsAfterPx();
-  for (const auto& entry : corrections)
+  for (const auto& entry : corrections) {
     result.poses[entry.first] =
         correctedPose(cameraToWorld(keyframes.at(entry.first).camera), entry.second.w, entry.second.dc);
+    if (solvesVelocity(keyframes.at(entry.first)))
+      result.velocity_corrections[entry.first] = {Eigen::Vector3d(entry.second.dw), Eigen::Vector3d(entry.second.dv)};
+  }
   return result;
 }
 

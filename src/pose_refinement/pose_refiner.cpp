@@ -117,7 +117,8 @@ class PoseRefiner::Impl {
 
   PoseRefinementResult refine(DepthProblem* problem);
   KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras,
-                                                 const std::map<int64_t, ViewMotion>& motions) const;
+                                                 const std::map<int64_t, ViewMotion>& motions,
+                                                 const std::map<int64_t, VelocityPrior>& velocities) const;
   void forget(int64_t key);
   void moveFeatures(int64_t key, const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>& move) {
     const auto found = cache_.find(key);
@@ -152,14 +153,17 @@ void PoseRefiner::Impl::forget(int64_t key) {
 }
 
 KeyframeBundleAdjustmentResult PoseRefiner::Impl::adjustKeyframes(
-    const std::map<int64_t, PinholeCamera>& cameras, const std::map<int64_t, ViewMotion>& motions) const {
+    const std::map<int64_t, PinholeCamera>& cameras, const std::map<int64_t, ViewMotion>& motions,
+    const std::map<int64_t, VelocityPrior>& velocities) const {
   std::map<int64_t, BundleKeyframe> keyframes;
   for (const auto& entry : cameras) {
     const auto features = cache_.find(entry.first);
     if (features == cache_.end()) continue;
     const auto motion = motions.find(entry.first);
+    const auto velocity = velocities.find(entry.first);
     keyframes[entry.first] = {entry.second, features->second->pixels,
-                              motion != motions.end() ? motion->second : ViewMotion(), features->second->sizes};
+                              motion != motions.end() ? motion->second : ViewMotion(), features->second->sizes,
+                              velocity != velocities.end() ? velocity->second : VelocityPrior()};
   }
   std::vector<KeyframeFeatureMatches> matches;
   for (const auto& pair : pair_matches_) matches.push_back({pair.first.first, pair.first.second, pair.second});
@@ -295,8 +299,9 @@ PoseRefiner::~PoseRefiner() = default;
 
 PoseRefinementResult PoseRefiner::refine(DepthProblem* problem) { return impl_->refine(problem); }
 KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras,
-                                                            const std::map<int64_t, ViewMotion>& motions) const {
-  return impl_->adjustKeyframes(cameras, motions);
+                                                            const std::map<int64_t, ViewMotion>& motions,
+                                                            const std::map<int64_t, VelocityPrior>& velocities) const {
+  return impl_->adjustKeyframes(cameras, motions, velocities);
 }
 void PoseRefiner::forget(int64_t key) { impl_->forget(key); }
 void PoseRefiner::moveFeatures(int64_t key, const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>& move) {

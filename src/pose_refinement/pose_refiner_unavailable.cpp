@@ -23,7 +23,8 @@ PoseRefinementResult PoseRefiner::refine(DepthProblem*) {
 }
 
 KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64_t, PinholeCamera>&,
-                                                            const std::map<int64_t, ViewMotion>&) const {
+                                                            const std::map<int64_t, ViewMotion>&,
+                                                            const std::map<int64_t, VelocityPrior>&) const {
   return {};
 }
 

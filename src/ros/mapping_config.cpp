@@ -108,6 +108,8 @@ void readMapperOptions(const ros::NodeHandle& nh, amhmvs::OnlineMapperOptions* o
   read(nh, "rolling_shutter/use_tracker_velocity", &o->rolling_shutter.use_tracker_velocity);
   read(nh, "rolling_shutter/translation", &o->rolling_shutter.translation);
   read(nh, "rolling_shutter/from_adjusted_poses", &o->rolling_shutter.from_adjusted_poses);
+  read(nh, "rolling_shutter/tracker_velocity_sigma_rad_s", &o->rolling_shutter.tracker_velocity_sigma_rad_s);
+  read(nh, "rolling_shutter/tracker_velocity_sigma_m_s", &o->rolling_shutter.tracker_velocity_sigma_m_s);
 
   read(nh, "neighbour_depth/start_from_neighbours", &o->neighbour_depth.start_from_neighbours);
   read(nh, "neighbour_depth/start_iterations", &o->neighbour_depth.start_iterations);

@@ -48,6 +48,10 @@ bool setFusionOption(const std::string& name, const std::string& value, OnlineMa
   else if (name == "rolling_shutter_translation") mapper->rolling_shutter.translation = parseSwitch(name, value);
   else if (name == "rolling_shutter_from_adjusted_poses")
     mapper->rolling_shutter.from_adjusted_poses = parseSwitch(name, value);
+  else if (name == "rolling_shutter_velocity_sigma_rad_s")
+    mapper->rolling_shutter.tracker_velocity_sigma_rad_s = parseValue<double>(name, value);
+  else if (name == "rolling_shutter_velocity_sigma_m_s")
+    mapper->rolling_shutter.tracker_velocity_sigma_m_s = parseValue<double>(name, value);
   else if (name == "rolling_shutter_max_interval_s")
     mapper->rolling_shutter.max_interval_s = parseValue<double>(name, value);
   else return false;
@@ -237,6 +241,10 @@ std::string mapToolUsage() {
          "                       poses before and after it, and estimate its readers again\n"
          "                       (default "
       << (RollingShutterOptions().from_adjusted_poses ? 1 : 0) << ")\n"
+         "  --rolling_shutter_velocity_sigma_rad_s W, --rolling_shutter_velocity_sigma_m_s V\n"
+         "                       the tracker's velocity noise; both > 0 (with the velocity, its\n"
+         "                       translation and the keyframe bundle adjustment): the adjustment\n"
+         "                       solves each keyframe's velocity too (default 0, 0: as it comes)\n"
          "  --queue_size N       keyframes waiting (default: all offline, 4 with --realtime)\n"
          "  --skip_to_newest[=0|1]  after a queue overflow take the newest keyframe (default 1)\n"
          "Pose refinement (before stereo; depth, clouds and map stay in the tracker's frame):\n"

@@ -14,9 +14,11 @@
 
 namespace {
 
-// The `key: value` lines of a top-level section of config/mapping.yaml.
-std::map<std::string, std::string> documentedOptions(const std::string& section) {
-  std::ifstream file(std::string(AMHMVS_SOURCE_DIR) + "/config/mapping.yaml");
+// The `key: value` lines of a top-level section of config/mapping.yaml (or
+// of another yaml in config/).
+std::map<std::string, std::string> documentedOptions(const std::string& section,
+                                                     const std::string& yaml = "mapping.yaml") {
+  std::ifstream file(std::string(AMHMVS_SOURCE_DIR) + "/config/" + yaml);
   EXPECT_TRUE(file.good());
   std::map<std::string, std::string> documented;  // option -> value text
   bool in_section = false;
@@ -67,6 +69,31 @@ TEST(MappingConfigDoc, RefinementSectionHasTheDefaults) {
   EXPECT_EQ(std::stod(documented["max_confident_loss"]), defaults.max_confident_loss);
   EXPECT_EQ(documented["fuse_neighbours_again"], flag(defaults.fuse_neighbours_again));
   EXPECT_EQ(documented.size(), 6u);
+}
+
+// config/tracker_with_velocity.yaml (loaded after mapping.yaml) sets only
+// keys that mapping.yaml has, in the same sections, and its pose refinement
+// values parse.
+TEST(MappingConfigDoc, TrackerWithVelocityOverridesExistingKeys) {
+  const std::string overrides = "tracker_with_velocity.yaml";
+  std::ifstream file(std::string(AMHMVS_SOURCE_DIR) + "/config/" + overrides);
+  ASSERT_TRUE(file.good());
+  std::vector<std::string> sections;
+  for (std::string line; std::getline(file, line);)
+    if (!line.empty() && line[0] != ' ' && line[0] != '#') sections.push_back(line.substr(0, line.find(':')));
+  EXPECT_EQ(sections, (std::vector<std::string>{"pose_refinement", "refinement", "rolling_shutter"}));
+  for (const std::string& section : sections) {
+    const std::map<std::string, std::string> documented = documentedOptions(section);
+    for (const auto& entry : documentedOptions(section, overrides))
+      EXPECT_TRUE(documented.count(entry.first)) << section << "/" << entry.first << " is not in mapping.yaml";
+  }
+  amhmvs::PoseRefinementOptions parsed;
+  for (const auto& entry : documentedOptions("pose_refinement", overrides))
+    for (const auto& option : amhmvs::poseRefinementOptionTable())
+      if (option.name == entry.first) option.set(parsed, entry.second);
+  EXPECT_TRUE(parsed.keyframe_bundle_adjustment);
+  EXPECT_EQ(parsed.max_features, 2000);
+  EXPECT_EQ(parsed.validate(), "");
 }
 
 }  // namespace

@@ -208,9 +208,15 @@ TEST(RollingShutter, InvalidOptionsAreRefusedWithTheirNames) {
   RollingShutterOptions options;
   options.readout_s = -0.01;
   options.max_interval_s = 0;
+  options.tracker_velocity_sigma_rad_s = -0.05;
+  options.tracker_velocity_sigma_m_s = INFINITY;
   const std::string problems = options.validate();
   EXPECT_NE(problems.find("readout_s must be in [0, 1]"), std::string::npos) << problems;
   EXPECT_NE(problems.find("max_interval_s must be positive"), std::string::npos) << problems;
+  EXPECT_NE(problems.find("tracker_velocity_sigma_rad_s must be >= 0 and finite, got -0.05"), std::string::npos)
+      << problems;
+  EXPECT_NE(problems.find("tracker_velocity_sigma_m_s must be >= 0 and finite, got inf"), std::string::npos)
+      << problems;
   OnlineMapperOptions mapper;
   mapper.rolling_shutter.readout_s = NAN;
   EXPECT_NE(mapper.validate().find("rolling_shutter: readout_s"), std::string::npos) << mapper.validate();

@@ -70,6 +70,7 @@
 #include <future>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -444,9 +445,17 @@ class OnlineMapper {
   // keyframe rectified from chords, from the adjusted poses around it; those
   // that differ from their rectification's are due to be rectified again.
   void planRectificationFromPoses(const std::map<int64_t, Eigen::Isometry3d>& poses);
+  // rolling_shutter.solvesTrackerVelocity(): the priors of the keyframes
+  // whose velocity the adjustment solves, and, after it, those whose solved
+  // velocity differs from their rectification's and motion's are due again.
+  std::map<int64_t, VelocityPrior> velocityPriors() const;
+  void planRectificationFromVelocities(const std::map<int64_t, CameraVelocity>& corrections);
   // Rectifies the due keyframes again (their features move along); the
   // depth maps that read them are then estimated again (stereoPosesMoved).
   void rectifyDueAgain();
+  // Whether keyframe `id`'s depth map may still be estimated again
+  // (pose_refinement.max_pose_reestimates).
+  bool reestimatesLeft(int64_t id) const;
   int imageRevision(int64_t id) const;
   // Drops a keyframe that left the store from every list and cache (not the map).
   struct Forgotten {
@@ -519,13 +528,20 @@ class OnlineMapper {
   size_t rolling_shutter_not_rectified_ = 0;
   size_t rolling_shutter_from_tracker_velocity_ = 0;
   // rolling_shutter.from_adjusted_poses: keyframes rectified from chords, as
-  // they came and the angular velocity their stored image is rectified with.
+  // they came and the angular velocity their stored image is rectified with;
+  // with solvesTrackerVelocity() also the keyframes rectified with the
+  // tracker's velocity, which they keep as their prior.
   struct ChordRectified {
     ImageU8 unrectified;
     Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
+    std::optional<CameraVelocity> tracker_velocity;  // set: its velocity is solved
   };
   std::map<int64_t, ChordRectified> chord_rectified_;
-  std::map<int64_t, Eigen::Vector3d> rectify_again_;  // due, with this angular velocity
+  struct Rectification {
+    Eigen::Vector3d angular_velocity;
+    std::optional<Eigen::Vector3d> linear_velocity;  // set: the rows' centres move with this
+  };
+  std::map<int64_t, Rectification> rectify_again_;  // due, with this velocity
   std::map<int64_t, int> image_revisions_;            // times rectified again
   size_t rolling_shutter_rectified_again_ = 0;
   std::function<void(int64_t)> forget_image_;

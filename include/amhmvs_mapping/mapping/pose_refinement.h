@@ -185,9 +185,11 @@ class PoseRefiner {
   // over the cached features and the matches of every refined or confirmed
   // pair since their keys were cached; `cameras` are the keyframes at the
   // tracker's poses, by image key (others are left out); `motions`, by the
-  // same keys, the rolling shutters whose velocity is known (none: global).
+  // same keys, the rolling shutters whose velocity is known (none: global);
+  // `velocities`, by the same keys, those whose velocity is solved as well.
   KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras,
-                                                 const std::map<int64_t, ViewMotion>& motions = {}) const;
+                                                 const std::map<int64_t, ViewMotion>& motions = {},
+                                                 const std::map<int64_t, VelocityPrior>& velocities = {}) const;
 
   // Drops the cached features and matches of an image key (its keyframe left the store).
   void forget(int64_t key);

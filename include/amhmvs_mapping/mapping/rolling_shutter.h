@@ -60,7 +60,21 @@ struct RollingShutterOptions {
   // loses 4.2, where even the true turn rate loses 8.4 (README "Rectified
   // again from the adjusted poses").
   bool from_adjusted_poses = false;
+  // The noise of the tracker's velocity (std dev per axis of its turn rate,
+  // rad/s, and of its linear velocity, m/s). Both > 0, with
+  // use_tracker_velocity, translation and the keyframe bundle adjustment:
+  // the adjustment solves each such keyframe's velocity too, with the
+  // tracker's as the prior (VelocityPrior); the image is rectified again
+  // with the solved turn rate (its features move with it) and its rows'
+  // centres move with the solved velocity, and the depth maps that read it
+  // are estimated again (as from_adjusted_poses). 0: the tracker's velocity
+  // is used as it comes. README "Solving the tracker's velocity".
+  double tracker_velocity_sigma_rad_s = 0;
+  double tracker_velocity_sigma_m_s = 0;
 
+  bool solvesTrackerVelocity() const {
+    return use_tracker_velocity && translation && tracker_velocity_sigma_rad_s > 0 && tracker_velocity_sigma_m_s > 0;
+  }
   bool enabled() const { return readout_s > 0; }
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;
