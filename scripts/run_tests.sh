@@ -184,6 +184,7 @@ if [ -f "$bag" ]; then
              "redkitchen_shipped_defaults replay_map.test scene:=redkitchen defaults:=true bag:=$kitchen_bag" \
              "realism_tracker_settings replay_map.test scene:=realism bag:=$realism_bag truth_dir:=$realism_dir" \
              "realism_tracker_velocity replay_map.test scene:=realism velocity:=true bag:=$realism_bag truth_dir:=$realism_dir" \
+             "realism_tracker_with_velocity_settings replay_map.test scene:=realism velocity:=true tracker_settings:=true bag:=$realism_bag truth_dir:=$realism_dir" \
              "depth_interop depth_interop.test" \
              "fountain_compressed_jpeg replay_fountain.test compressed:=jpeg" \
              "replay_part replay_part.test"; do
@@ -198,7 +199,7 @@ if [ -f "$bag" ]; then
 else
   echo "rostest: skipped, no bag at $bag"
   ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped
-             skipped skipped skipped skipped skipped skipped)
+             skipped skipped skipped skipped skipped skipped skipped)
 fi
 
 # The package installed the way a ROS user's workspace installs it: a fresh
