@@ -168,7 +168,7 @@ void OnlineMapper::rectifyRollingShutter(int64_t id) {
   if (options.use_tracker_velocity && stored.velocity) {  // no estimate from the previous pose
     motion_anchor_ = {true, id, stored.stamp, stored.camera, true, estimates_started_};
     if (adjusted && options.solvesTrackerVelocity())
-      chord_rectified_[id] = {stored.image, stored.velocity->angular, *stored.velocity};
+      rerectifiable_[id] = {stored.image, stored.velocity->angular, *stored.velocity};
     store_.replaceImage(id, amhmvs::rectifyRollingShutter(stored.image, stored.camera, stored.velocity->angular,
                                                           options.readout_s));
     if (options.translation) store_.setMotion(id, {stored.velocity->linear, options.readout_s});
@@ -187,7 +187,7 @@ void OnlineMapper::rectifyRollingShutter(int64_t id) {
   const bool rectified_again_later = options.from_adjusted_poses && adjusted;
   const auto rectifyStored = [&](int64_t key) {
     const Keyframe& keyframe = store_.keyframe(key);
-    if (rectified_again_later) chord_rectified_[key] = {keyframe.image, angular_velocity, std::nullopt};
+    if (rectified_again_later) rerectifiable_[key] = {keyframe.image, angular_velocity, std::nullopt};
     store_.replaceImage(key, amhmvs::rectifyRollingShutter(keyframe.image, keyframe.camera, angular_velocity,
                                                            options.readout_s));
     ++rolling_shutter_rectified_;
@@ -217,7 +217,7 @@ bool OnlineMapper::reestimatesLeft(int64_t id) const {
 std::map<int64_t, VelocityPrior> OnlineMapper::velocityPriors() const {
   const RollingShutterOptions& options = options_.rolling_shutter;
   std::map<int64_t, VelocityPrior> priors;
-  for (const auto& [id, rectified] : chord_rectified_) {
+  for (const auto& [id, rectified] : rerectifiable_) {
     if (!rectified.tracker_velocity || !store_.contains(id)) continue;
     VelocityPrior& prior = priors[id];
     prior.angular_sigma_rad_s = options.tracker_velocity_sigma_rad_s;
@@ -231,8 +231,8 @@ std::map<int64_t, VelocityPrior> OnlineMapper::velocityPriors() const {
 void OnlineMapper::planRectificationFromVelocities(const std::map<int64_t, CameraVelocity>& corrections) {
   const double readout_s = options_.rolling_shutter.readout_s;
   for (const auto& [id, correction] : corrections) {
-    const auto rectified = chord_rectified_.find(id);
-    if (rectified == chord_rectified_.end() || !store_.contains(id)) continue;
+    const auto rectified = rerectifiable_.find(id);
+    if (rectified == rerectifiable_.end() || !store_.contains(id)) continue;
     // A depth map that is not estimated again keeps the image it was estimated from.
     if (!reestimatesLeft(id) || std::max(correction.angular.norm(), correction.linear.norm()) * readout_s <=
                                     kMinRectificationChange) {
@@ -245,16 +245,16 @@ void OnlineMapper::planRectificationFromVelocities(const std::map<int64_t, Camer
 }
 
 void OnlineMapper::planRectificationFromPoses(const std::map<int64_t, Eigen::Isometry3d>& poses) {
-  if (chord_rectified_.empty()) return;
+  if (rerectifiable_.empty()) return;
   const double readout_s = options_.rolling_shutter.readout_s;
   std::vector<std::pair<double, int64_t>> by_time;
   for (const auto& entry : poses)
     if (store_.contains(entry.first)) by_time.emplace_back(store_.keyframe(entry.first).stamp, entry.first);
   std::sort(by_time.begin(), by_time.end());
   for (size_t i = 0; i < by_time.size(); ++i) {
-    const auto rectified = chord_rectified_.find(by_time[i].second);
+    const auto rectified = rerectifiable_.find(by_time[i].second);
     // Keyframes with the tracker's velocity: planRectificationFromVelocities.
-    if (rectified == chord_rectified_.end() || rectified->second.tracker_velocity) continue;
+    if (rectified == rerectifiable_.end() || rectified->second.tracker_velocity) continue;
     // A depth map that is not estimated again keeps the image it was estimated from.
     if (!reestimatesLeft(rectified->first)) {
       rectify_again_.erase(rectified->first);
@@ -287,8 +287,8 @@ void OnlineMapper::rectifyDueAgain() {
   for (const auto& due : rectify_again_) {
     const int64_t id = due.first;
     const Eigen::Vector3d wanted = due.second.angular_velocity;  // a variable: the lambda below captures it
-    const auto rectified = chord_rectified_.find(id);
-    if (rectified == chord_rectified_.end() || !store_.contains(id)) continue;
+    const auto rectified = rerectifiable_.find(id);
+    if (rectified == rerectifiable_.end() || !store_.contains(id)) continue;
     const PinholeCamera camera = store_.keyframe(id).camera;
     store_.replaceImage(id, amhmvs::rectifyRollingShutter(rectified->second.unrectified, camera, wanted, readout_s));
     if (forget_image_) forget_image_(id);
@@ -553,7 +553,7 @@ OnlineMapper::Forgotten OnlineMapper::forgetKeyframe(int64_t id) {
   if (pose_refiner_) pose_refiner_->forget(id);
   refined_poses_.forget(id);
   map_poses_.erase(id);  // its points stay in the map where they are
-  chord_rectified_.erase(id);
+  rerectifiable_.erase(id);
   rectify_again_.erase(id);
   image_revisions_.erase(id);
   const auto without_depth = std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id);
@@ -923,7 +923,7 @@ void OnlineMapper::reset() {
   rolling_shutter_rectified_ = 0;
   rolling_shutter_not_rectified_ = 0;
   rolling_shutter_rectified_again_ = 0;
-  chord_rectified_.clear();
+  rerectifiable_.clear();
   rectify_again_.clear();
   image_revisions_.clear();
   rolling_shutter_from_tracker_velocity_ = 0;

@@ -213,8 +213,7 @@ struct VelocityPriorResidual {
 };
 
 MovingReprojectionResidual movingResidualOf(const BundleKeyframe& keyframe, const Observation& observation) {
-  const double slope = keyframe.motion.readout_s / (keyframe.camera.height - 1);
-  return {residualOf(keyframe, observation), slope * observation.pixel.y() - 0.5 * keyframe.motion.readout_s};
+  return {residualOf(keyframe, observation), keyframe.motion.rowTime(observation.pixel.y(), keyframe.camera.height)};
 }
 
 // Reprojection error in pixels (infinite behind the camera).

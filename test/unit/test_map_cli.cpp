@@ -63,6 +63,17 @@ void expectAbove(const std::string& summary, const std::vector<Floor>& floors) {
   }
 }
 
+// Runs amhmvs_map from MVSNet folder `input` into `output` with `options`
+// (expected to succeed; its log is printed when `echo`) and returns the
+// written summary.json.
+std::string mapRunSummary(const std::string& input, const std::string& output, const std::string& options,
+                          bool echo = false) {
+  const CommandResult run = runTool("amhmvs_map", input + " " + output + options);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  if (echo) std::cout << run.output;
+  return readText(output + "/summary.json");
+}
+
 size_t lineCount(const std::string& path) {
   std::ifstream in(path);
   size_t lines = 0;
@@ -225,12 +236,8 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
   // gives 8451 points, 59.4 / 96.3 % within 2 / 5 cm of the true surface here.
   // The summary of a run with pose refinement and `extra` options into `name`/.
   const auto refinedRun = [&](const std::string& name, const std::string& extra) {
-    const CommandResult run = runTool("amhmvs_map", dir.file("room") + " " + dir.file(name) + settings +
-                                                        " --pose_refinement=1 --fusion_max_relative_depth_difference 0.01" +
-                                                        extra);
-    EXPECT_EQ(run.exit_code, 0) << run.output;
-    std::cout << run.output;
-    return readText(dir.file(name + "/summary.json"));
+    return mapRunSummary(dir.file("room"), dir.file(name),
+                         settings + " --pose_refinement=1 --fusion_max_relative_depth_difference 0.01" + extra, true);
   };
   const std::string refined_summary = refinedRun("refined", "");
   // Measured (CPU): 50.3 / 76.4 / 90.3 / 92.2 % within 1/2/5/10 %,
@@ -378,9 +385,7 @@ TEST(MapCli, TrackerVelocityAtTheTruePoses) {
       " --fusion_max_relative_depth_difference 0.01 --frame_period 0.5 --rolling_shutter_s 0.025"
       " --pose_refinement_correct_map_poses=1 --fuse_neighbours_again";
   const auto run = [&](const std::string& name, const std::string& extra) {
-    const CommandResult r = runTool("amhmvs_map", dir.file("room") + " " + dir.file(name) + settings + extra);
-    EXPECT_EQ(r.exit_code, 0) << r.output;
-    return readText(dir.file(name + "/summary.json"));
+    return mapRunSummary(dir.file("room"), dir.file(name), settings + extra);
   };
   // Measured (CPU): map 8278 points, 83.3 % within 2 cm without; 8686,
   // 87.9 % with; with the bundle adjustment as well 8685, 87.8 %.
@@ -424,9 +429,7 @@ TEST(MapCli, RealismRoomBehindATrackerWithVelocity) {
       " --rolling_shutter_velocity=1 --pose_refinement_max_features 2000 --pose_refinement_finest_feature_size_px 2"
       " --pose_refinement_prior_rotation_sigma_deg 1 --pose_refinement_prior_position_sigma_m 0.03";
   const auto run = [&](const std::string& name, const std::string& extra) {
-    const CommandResult r = runTool("amhmvs_map", dir.file("room") + " " + dir.file(name) + settings + extra);
-    EXPECT_EQ(r.exit_code, 0) << r.output;
-    return readText(dir.file(name + "/summary.json"));
+    return mapRunSummary(dir.file("room"), dir.file(name), settings + extra);
   };
   const std::string given = run("given", "");
   const std::string solved =

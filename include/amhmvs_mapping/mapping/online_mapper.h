@@ -527,16 +527,17 @@ class OnlineMapper {
   size_t rolling_shutter_rectified_ = 0;
   size_t rolling_shutter_not_rectified_ = 0;
   size_t rolling_shutter_from_tracker_velocity_ = 0;
-  // rolling_shutter.from_adjusted_poses: keyframes rectified from chords, as
-  // they came and the angular velocity their stored image is rectified with;
-  // with solvesTrackerVelocity() also the keyframes rectified with the
-  // tracker's velocity, which they keep as their prior.
-  struct ChordRectified {
+  // Keyframes whose image may be rectified again, kept as they came with the
+  // angular velocity their stored image is rectified with: those rectified
+  // from chords (rolling_shutter.from_adjusted_poses) and, with
+  // solvesTrackerVelocity(), those rectified with the tracker's velocity,
+  // which they keep as their prior.
+  struct Rerectifiable {
     ImageU8 unrectified;
     Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
     std::optional<CameraVelocity> tracker_velocity;  // set: its velocity is solved
   };
-  std::map<int64_t, ChordRectified> chord_rectified_;
+  std::map<int64_t, Rerectifiable> rerectifiable_;
   struct Rectification {
     Eigen::Vector3d angular_velocity;
     std::optional<Eigen::Vector3d> linear_velocity;  // set: the rows' centres move with this
