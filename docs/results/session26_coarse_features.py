@@ -10,11 +10,14 @@ depth_gt/), OUT an `amhmvs_map` output (depth/, clouds/, keyframe_poses.txt).
   walls DATA OUT
       per keyframe, on the farthest 30 % of the true pixels: the written
       depth's and the fused cloud's median signed error and share within
-      0.5 %.
+      0.5 %; with OUT's summary.json also the depth's median error at the
+      map's own scale (times the similarity's scale to the true poses).
   pairs DATA:OUT [DATA:OUT ...]
       each consecutive keyframe pair's relative rotation error of the map's
       poses (keyframe_poses.txt) against the truth, as a rotation vector in
-      the first camera's frame (degrees; y is the yaw of a sideways walk).
+      the first camera's frame (degrees; y is the yaw of a sideways walk),
+      then each component's signed mean over the pairs (a bias shared by
+      the pairs bends the map) and the mean absolute component.
   export DATA FILE [--truth] [--max_size S] [--gap G] [--features N]
       SIFT features (OpenCV, all of them; optionally only those of size <= S,
       or the N strongest as the pipeline's max_features) of every image, their
@@ -54,6 +57,11 @@ def true_poses(data, ids):
 
 
 def walls(data, out):
+    scale = None
+    if os.path.exists(out + '/summary.json'):
+        import json
+        aligned = json.load(open(out + '/summary.json'))['map'].get('after_similarity_to_true_poses')
+        scale = aligned['scale'] if aligned else None
     for k in sorted(map_poses(out)):
         world_to_camera, intrinsics = read_cam('%s/cams/%08d_cam.txt' % (data, k))
         truth = read_pfm('%s/depth_gt/%08d.pfm' % (data, k)).astype(float)
@@ -66,6 +74,11 @@ def walls(data, out):
         cloud = np.full(truth.shape, np.nan)
         cloud[v[inside], u[inside]] = camera[inside, 2]
         line = ['keyframe %d, far walls at %.2f m:' % (k, np.nanmedian(truth[far]))]
+        if scale is not None:
+            # The depth against the map's own scale (the similarity to the
+            # true poses multiplies the map by `scale`): what bends the map.
+            error = (depth * scale - truth) / truth
+            line.append('depth at the map\'s scale median %+.2f %%,' % (100 * np.nanmedian(error[far])))
         for name, values in (('depth', depth), ('cloud', cloud)):
             error = (values - truth) / truth
             chosen = far & np.isfinite(error)
@@ -90,8 +103,10 @@ def pairs(runs, poses_file=False):
         for a, b in zip(ids, ids[1:]):
             mapped = np.linalg.inv(poses[a]) @ poses[b]
             true = np.linalg.inv(truth[a]) @ truth[b]
-            errors.append('(%+.3f %+.3f %+.3f)' % tuple(rotation_vector_deg(mapped[:3, :3] @ true[:3, :3].T)))
-        print(out, ' '.join(errors))
+            errors.append(rotation_vector_deg(mapped[:3, :3] @ true[:3, :3].T))
+        print(out, ' '.join('(%+.3f %+.3f %+.3f)' % tuple(e) for e in errors),
+              'signed mean (%+.4f %+.4f %+.4f)' % tuple(np.mean(errors, axis=0)),
+              'mean abs %.4f' % np.mean(np.abs(errors)))
 
 
 def export(data, path, use_truth, max_size, gap=3, count=0):
