@@ -81,7 +81,8 @@ TEST(MappingConfigDoc, TrackerWithVelocityOverridesExistingKeys) {
   std::vector<std::string> sections;
   for (std::string line; std::getline(file, line);)
     if (!line.empty() && line[0] != ' ' && line[0] != '#') sections.push_back(line.substr(0, line.find(':')));
-  EXPECT_EQ(sections, (std::vector<std::string>{"pose_refinement", "refinement", "rolling_shutter"}));
+  EXPECT_EQ(sections,
+            (std::vector<std::string>{"pose_refinement", "refinement", "rolling_shutter", "fusion", "map"}));
   for (const std::string& section : sections) {
     const std::map<std::string, std::string> documented = documentedOptions(section);
     for (const auto& entry : documentedOptions(section, overrides))
