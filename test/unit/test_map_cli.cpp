@@ -432,9 +432,10 @@ TEST(MapCli, RealismRoomBehindATrackerWithVelocity) {
   const auto run = [&](const std::string& name, const std::string& extra) {
     return mapRunSummary(dir.file("room"), dir.file(name), settings + extra);
   };
+  const std::string velocity_solved =
+      " --rolling_shutter_velocity_sigma_rad_s 0.05 --rolling_shutter_velocity_sigma_m_s 0.15";
   const std::string given = run("given", "");
-  const std::string solved =
-      run("solved", " --rolling_shutter_velocity_sigma_rad_s 0.05 --rolling_shutter_velocity_sigma_m_s 0.15");
+  const std::string solved = run("solved", velocity_solved);
   std::printf("realism room behind a tracker with velocity: map within 2 cm after the similarity %.1f %% as given, "
               "%.1f %% solved\n",
               jsonNumber(given, "after_similarity_to_true_poses", "within_2cm_pct"),
@@ -459,9 +460,7 @@ TEST(MapCli, RealismRoomBehindATrackerWithVelocity) {
   // 47957 points, 95.0 % within 2 cm after the similarity, the least
   // keyframe 53.3 % of its pixels in the map (solved above: 46.1 %), depth
   // 95.2 % within 5 % (seeds 1-8: README "A tracker with velocity").
-  const std::string targets = run("targets",
-                                  " --rolling_shutter_velocity_sigma_rad_s 0.05 --rolling_shutter_velocity_sigma_m_s 0.15"
-                                  " --fusion_max_normal_angle_deg 19 --min_points_per_voxel 3");
+  const std::string targets = run("targets", velocity_solved + " --fusion_max_normal_angle_deg 19 --min_points_per_voxel 3");
   std::printf("... with the fusion and map settings: map %.1f %%, the least keyframe %.1f %% in the map, depth %.1f %% "
               "within 5 %%\n",
               jsonNumber(targets, "after_similarity_to_true_poses", "within_2cm_pct"),

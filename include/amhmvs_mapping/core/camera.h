@@ -32,15 +32,14 @@ struct ViewMotion {
   // move during a readout (the matching cost takes them as they are).
   double rowTimeSlope(int height) const { return rolling() && height > 1 ? readout_s / (height - 1) : 0; }
   double rowTimeAtTop(int height) const { return rolling() && height > 1 ? -0.5 * readout_s : 0; }
-  // tau(y) of a view whose velocity is unknown yet (the keyframe bundle
-  // adjustment solves it): 0 only for a global shutter.
+  // tau(y) whether or not the view moves (the keyframe bundle adjustment
+  // solves velocities, so it needs tau before one is known): 0 only for a
+  // global shutter.
   double rowTime(double row, int height) const {
     return readout_s > 0 && height > 1 ? readout_s / (height - 1) * row - 0.5 * readout_s : 0;
   }
   // Row y's camera centre minus the middle row's, in the camera frame.
-  Eigen::Vector3d rowOffset(double row, int height) const {
-    return (rowTimeSlope(height) * row + rowTimeAtTop(height)) * velocity;
-  }
+  Eigen::Vector3d rowOffset(double row, int height) const { return rowTime(row, height) * velocity; }
 };
 
 struct PinholeCamera {
