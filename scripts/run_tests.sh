@@ -146,6 +146,34 @@ set +e
 [ $? -ne 0 ] && status=1
 set -e
 
+# The rostests: name, test file, launch arguments (the bags and the realism
+# folder are written below when the fountain bag is there).
+kitchen_bag=$build/bags/redkitchen_7scenes_40.bag
+realism_dir=$build/realism_room8
+realism_bag=$build/bags/realism_room8.bag
+ros_tests=(
+  "fountain_manager_pose replay_fountain.test standalone:=false input_mode:=pose"
+  "fountain_standalone_tf replay_fountain.test standalone:=true input_mode:=tf"
+  "fountain_manager_keyframe replay_fountain.test standalone:=false input_mode:=keyframe"
+  "fountain_slow_replay replay_fountain.test rate:=0.1"
+  "temple_map_odometry_region replay_map.test scene:=temple input_mode:=odometry region:=true"
+  "icl_plumbing replay_map.test scene:=icl"
+  "keyframe_services keyframe_services.test"
+  "missing_tf missing_tf.test"
+  "silent_inputs silent_inputs.test"
+  "hostile_input hostile_input.test"
+  "bad_input bad_input.test"
+  "fountain_shipped_defaults replay_fountain.test defaults:=true"
+  "temple_shipped_defaults replay_map.test scene:=temple defaults:=true"
+  "redkitchen_shipped_defaults replay_map.test scene:=redkitchen defaults:=true bag:=$kitchen_bag"
+  "realism_tracker_settings replay_map.test scene:=realism bag:=$realism_bag truth_dir:=$realism_dir"
+  "realism_tracker_velocity replay_map.test scene:=realism velocity:=true bag:=$realism_bag truth_dir:=$realism_dir"
+  "realism_tracker_with_velocity_settings replay_map.test scene:=realism velocity:=true tracker_settings:=true bag:=$realism_bag truth_dir:=$realism_dir"
+  "depth_interop depth_interop.test"
+  "fountain_compressed_jpeg replay_fountain.test compressed:=jpeg"
+  "replay_part replay_part.test"
+)
+
 bag=$data/bags/strecha_fountain_x0.25.bag
 if [ -f "$bag" ]; then
   set +u
@@ -155,39 +183,16 @@ if [ -f "$bag" ]; then
   export ROS_HOME=${ROS_HOME:-$build/ros_home}
   # redkitchen: 40 frames of the 7-Scenes folder as a bag (written here: the
   # data folder has none)
-  kitchen_bag=$build/bags/redkitchen_7scenes_40.bag
   mkdir -p "$build/bags"
   if [ -d "$data/redkitchen_7scenes" ]; then
     python3 "$here/scripts/seven_scenes_to_bag.py" "$data/redkitchen_7scenes" "$kitchen_bag"
   fi
   # realism: issue 12's realism room (tracker noise, rolling shutter, blur)
   # rendered here and written as a bag, its true cameras and depth kept
-  realism_dir=$build/realism_room8
-  realism_bag=$build/bags/realism_room8.bag
   "$build/devel/lib/amhmvs_mapping/amhmvs_synthetic" "$realism_dir" --scene room --views 8 --realism default \
     > "$build/realism_room8.log" 2>&1 || { tail -5 "$build/realism_room8.log"; status=1; }
   python3 "$here/scripts/dense_folder_to_bag.py" "$realism_dir" "$realism_bag"
-  # name, test file, launch arguments
-  for run in "fountain_manager_pose replay_fountain.test standalone:=false input_mode:=pose" \
-             "fountain_standalone_tf replay_fountain.test standalone:=true input_mode:=tf" \
-             "fountain_manager_keyframe replay_fountain.test standalone:=false input_mode:=keyframe" \
-             "fountain_slow_replay replay_fountain.test rate:=0.1" \
-             "temple_map_odometry_region replay_map.test scene:=temple input_mode:=odometry region:=true" \
-             "icl_plumbing replay_map.test scene:=icl" \
-             "keyframe_services keyframe_services.test" \
-             "missing_tf missing_tf.test" \
-             "silent_inputs silent_inputs.test" \
-             "hostile_input hostile_input.test" \
-             "bad_input bad_input.test" \
-             "fountain_shipped_defaults replay_fountain.test defaults:=true" \
-             "temple_shipped_defaults replay_map.test scene:=temple defaults:=true" \
-             "redkitchen_shipped_defaults replay_map.test scene:=redkitchen defaults:=true bag:=$kitchen_bag" \
-             "realism_tracker_settings replay_map.test scene:=realism bag:=$realism_bag truth_dir:=$realism_dir" \
-             "realism_tracker_velocity replay_map.test scene:=realism velocity:=true bag:=$realism_bag truth_dir:=$realism_dir" \
-             "realism_tracker_with_velocity_settings replay_map.test scene:=realism velocity:=true tracker_settings:=true bag:=$realism_bag truth_dir:=$realism_dir" \
-             "depth_interop depth_interop.test" \
-             "fountain_compressed_jpeg replay_fountain.test compressed:=jpeg" \
-             "replay_part replay_part.test"; do
+  for run in "${ros_tests[@]}"; do
     read -r name file args <<< "$run"
     dir=$ros_results/$name
     mkdir -p "$dir"
@@ -198,8 +203,7 @@ if [ -f "$bag" ]; then
   done
 else
   echo "rostest: skipped, no bag at $bag"
-  ros_runs+=(skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped skipped
-             skipped skipped skipped skipped skipped skipped skipped)
+  for _ in "${ros_tests[@]}"; do ros_runs+=(skipped); done
 fi
 
 # The package installed the way a ROS user's workspace installs it: a fresh
