@@ -21,5 +21,5 @@ function(amhmvs_configure_unit_tests target)
     AMHMVS_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}"
     AMHMVS_DEPTH_BIN="$<TARGET_FILE:amhmvs_depth>"
     AMHMVS_TOOLS_DIR="$<TARGET_FILE_DIR:amhmvs_depth>")
-  add_dependencies(${target} amhmvs_depth amhmvs_synthetic ${AMHMVS_MAPPING_TOOLS})
+  add_dependencies(${target} amhmvs_depth amhmvs_synthetic ${AMHMVS_MAPPING_TOOLS} ${AMHMVS_STUDY_TOOLS})
 endfunction()

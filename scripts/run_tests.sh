@@ -7,16 +7,51 @@
 # scripts/gpu_check.sh.
 #
 # Real data: $AMHMVS_DATA_DIR, else ../shared/data beside the repository.
+#
+# --fast: the edit loop's tier: builds the unit tests and the programs they
+# run, then runs the unit tests without the slow ones (the real-data floors,
+# the CLI runs on whole sequences, the repeated estimator runs: kSlowTests
+# below); no sanitizers, fuzzers, rostests or demo.
 set -euo pipefail
+fast=false
+case ${1:-} in
+  --fast) fast=true ;;
+  -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;;
+  "") ;;
+  *) echo "run_tests.sh: unknown option $1 (--help)" >&2; exit 2 ;;
+esac
 here=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:/usr/local/cuda/bin:$PATH
 build=${AMHMVS_BUILD_DIR:-$here/build}
 data=${AMHMVS_DATA_DIR:-$here/../shared/data}
 
 "$here/scripts/install_dependencies.sh"
-AMHMVS_MAKE_TARGETS="all tests" "$here/scripts/build.sh"
-
 export AMHMVS_DATA_DIR=$data
+
+if [ "$fast" = true ]; then
+  AMHMVS_MAKE_TARGETS="amhmvs_unit_tests" "$here/scripts/build.sh"
+  slow='RealData.*:FuseCliRealData.*:DepthCliColmap.*:MapCli.*:CoarseToFine.*:EstimatorOnSyntheticScene.*:GeometricConsistency.GeometricPassImproves*:SyntheticRealism.*:MapCliRoom*:OnlineMapperPoseRefinement.*:KeyframeBundleAdjustment.*:ReadmeCommands.*'
+  results=$build/test_results/fast_unit_tests.xml
+  mkdir -p "$(dirname "$results")"
+  start=$(date +%s)
+  set +e
+  "$build/devel/lib/amhmvs_mapping/amhmvs_unit_tests" --gtest_filter="-$slow" --gtest_output=xml:"$results" \
+    > "$build/test_results/fast_unit_tests.log" 2>&1
+  status=$?
+  set -e
+  grep -E "^\[  FAILED  \]" "$build/test_results/fast_unit_tests.log" || true
+  python3 - "$results" <<'PY'
+import sys, xml.etree.ElementTree as ET
+root = ET.parse(sys.argv[1]).getroot()
+total, failed = int(root.get("tests")), int(root.get("failures")) + int(root.get("errors"))
+skipped = sum(1 for case in root.iter("testcase") if case.find("skipped") is not None)
+print(f"{total - failed - skipped} passed, {failed} failed, {skipped} skipped")
+PY
+  echo "fast tier: unit tests in $(( $(date +%s) - start )) s (log: $build/test_results/fast_unit_tests.log)"
+  exit $status
+fi
+
+AMHMVS_MAKE_TARGETS="all tests" "$here/scripts/build.sh"
 
 # with_progress DESCRIPTION LOG COMMAND...: runs COMMAND with its output in
 # LOG and prints a line every 30 s (seconds so far, the log's last line), so

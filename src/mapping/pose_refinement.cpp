@@ -43,24 +43,10 @@ std::string PoseRefinementOptions::validate() const {
   return why.str();
 }
 
-namespace {
-
-// A true/false option (ROS parameters give "true"/"false", the tools 1/0).
-PoseRefinementOptionInfo switchField(const char* name, bool PoseRefinementOptions::*member, const char* help) {
-  return {name, help, [member](const PoseRefinementOptions& o) { return std::string(o.*member ? "true" : "false"); },
-          [member, name](PoseRefinementOptions& o, const std::string& text) {
-            if (text == "1" || text == "true") o.*member = true;
-            else if (text == "0" || text == "false") o.*member = false;
-            else throw InputError(std::string("option ") + name + ": '" + text + "' is not true/false (1/0)");
-          }};
-}
-
-}  // namespace
-
 const std::vector<PoseRefinementOptionInfo>& poseRefinementOptionTable() {
   using O = PoseRefinementOptions;
   static const std::vector<PoseRefinementOptionInfo> table = {
-      switchField("enabled", &O::enabled,
+      switchField<O>("enabled", &O::enabled,
                   "refine each keyframe's poses relative to its sources before stereo (features + bundle "
                   "adjustment; depth, clouds and map stay in the tracker's frame)"),
       numberField("max_features", &O::max_features, "SIFT features per keyframe image"),
@@ -85,17 +71,17 @@ const std::vector<PoseRefinementOptionInfo>& poseRefinementOptionTable() {
                   "a larger shift of a source's centre is rejected (the tracker's pose stays), m"),
       numberField("max_correction_deg", &O::max_correction_deg,
                   "a larger rotation of a source is rejected (the tracker's pose stays), deg"),
-      switchField("in_fusion", &O::in_fusion,
+      switchField<O>("in_fusion", &O::in_fusion,
                   "the fusion's consistency check and the confidence take the neighbours at the refined relative "
                   "poses (the points stay at the tracker's pose)"),
-      switchField("correct_map_poses", &O::correct_map_poses,
+      switchField<O>("correct_map_poses", &O::correct_map_poses,
                   "the map places each keyframe at its pose corrected by a graph of all refined relative poses "
                   "(the tracker's as priors); depth images and published clouds keep the tracker's pose"),
       numberField("graph_rotation_sigma_deg", &O::graph_rotation_sigma_deg,
                   "correct_map_poses: std dev of a refined pair's relative rotation, deg"),
       numberField("graph_direction_sigma_deg", &O::graph_direction_sigma_deg,
                   "correct_map_poses: std dev of a refined pair's baseline direction, deg"),
-      switchField("keyframe_bundle_adjustment", &O::keyframe_bundle_adjustment,
+      switchField<O>("keyframe_bundle_adjustment", &O::keyframe_bundle_adjustment,
                   "instead of the graph: one bundle adjustment over the matches of all stored keyframes after each "
                   "refinement; its poses place the map and are the stereo's and the fusion's relative poses"),
       numberField("max_pose_reestimates", &O::max_pose_reestimates,

@@ -45,16 +45,16 @@ MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const Ma
                              Callbacks callbacks)
     : config_(config),
       callbacks_(std::move(callbacks)),
-      picker_(config.keyframePicking()),
+      picker_(config.keyframes),
       started_(ros::WallTime::now()) {
   keyframe_poses_sub_ = nh.subscribe("keyframe_poses", 10, &MappingInputs::keyframePosesCallback, this);
-  if (config_.input_mode == "keyframe") {
+  if (config_.node.input_mode == "keyframe") {
     keyframe_sub_ = nh.subscribe("keyframe", 10, &MappingInputs::keyframeCallback, this);
     watch(keyframe_sub_.getTopic(), [this] { return keyframe_sub_.getNumPublishers(); });
     return;
   }
   it_.reset(new image_transport::ImageTransport(nh));
-  const uint32_t q = config_.sync_queue_size;
+  const uint32_t q = config_.node.sync_queue_size;
   // The base topic resolved here, so that a remap of `image` holds for every
   // transport: this image_transport appends "/compressed" to the unresolved
   // name, and image:=/camera/image gave <ns>/image/compressed.
@@ -64,8 +64,8 @@ MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const Ma
   // Arrivals of each topic, before synchronisation (what is silent?).
   watchFilter(*image_filter_);
   watchFilter(*info_filter_);
-  const ros::Duration max_interval(config_.sync_max_interval);
-  if (config_.input_mode == "pose") {
+  const ros::Duration max_interval(config_.node.sync_max_interval);
+  if (config_.node.input_mode == "pose") {
     pose_filter_.reset(new message_filters::Subscriber<geometry_msgs::PoseStamped>(nh, "pose", q));
     watchFilter(*pose_filter_);
     PoseSync policy(q);
@@ -73,7 +73,7 @@ MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const Ma
     pose_sync_.reset(new message_filters::Synchronizer<PoseSync>(static_cast<const PoseSync&>(policy), *image_filter_,
                                                                  *info_filter_, *pose_filter_));
     pose_sync_->registerCallback(&MappingInputs::poseCallback, this);
-  } else if (config_.input_mode == "odometry") {
+  } else if (config_.node.input_mode == "odometry") {
     odometry_filter_.reset(new message_filters::Subscriber<nav_msgs::Odometry>(nh, "odom", q));
     watchFilter(*odometry_filter_);
     OdometrySync policy(q);
@@ -83,9 +83,9 @@ MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const Ma
     odometry_sync_->registerCallback(&MappingInputs::odometryCallback, this);
   } else {
     tf_frames_.reset(new TfFrameFilter(
-        nh, config_.fixed_frame, config_.tf_timeout, q,
+        nh, config_.node.fixed_frame, config_.node.tf_timeout, q,
         [this](const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
-               const geometry_msgs::Pose& pose) { offerImage(image, info, config_.fixed_frame, pose); },
+               const geometry_msgs::Pose& pose) { offerImage(image, info, config_.node.fixed_frame, pose); },
         [this](const std::string& reason) { drop(&InputStats::dropped_missing_tf, reason); }));
     CameraSync policy(q);
     policy.setMaxIntervalDuration(max_interval);
@@ -148,6 +148,7 @@ std::vector<std::string> MappingInputs::silenceProblems(double silence_s) const 
   std::string delivering;  // a topic that delivers now
   for (const Topic& topic : topics_)
     if (recent(topic.last_arrival)) delivering = topic.name;
+  if (endedLocked(silence_s)) return problems;  // not a problem: the bag or the camera stopped
   for (const Topic& topic : topics_) {
     if (topic.publishers() == 0) {
       problems.push_back("no publisher on " + topic.name);
@@ -164,13 +165,28 @@ std::vector<std::string> MappingInputs::silenceProblems(double silence_s) const 
                              return recent(t.last_arrival);
                            });
   const bool synchronised = recent(last_synchronised_) || (now - started_).toSec() < silence_s;
-  if (all_deliver && !synchronised && config_.input_mode != "keyframe") {
+  if (all_deliver && !synchronised && config_.node.input_mode != "keyframe") {
     std::ostringstream line;
     line << "messages arrive on every input topic but none synchronise for " << silence_s
-         << " s: their stamps differ by more than ~sync_max_interval (" << config_.sync_max_interval << " s)";
+         << " s: their stamps differ by more than ~sync_max_interval (" << config_.node.sync_max_interval << " s)";
     problems.push_back(line.str());
   }
   return problems;
+}
+
+bool MappingInputs::endedLocked(double silence_s) const {
+  const ros::WallTime now = ros::WallTime::now();
+  bool any = false;
+  for (const Topic& topic : topics_) {
+    if (topic.last_arrival.isZero() || (now - topic.last_arrival).toSec() < silence_s) return false;
+    any = true;
+  }
+  return any;
+}
+
+bool MappingInputs::inputEnded(double silence_s) const {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  return endedLocked(silence_s);
 }
 
 void MappingInputs::noteSynchronised() {
@@ -256,9 +272,9 @@ void MappingInputs::odometryCallback(const sensor_msgs::ImageConstPtr& image,
 void MappingInputs::offerImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
                                const std::string& pose_frame, const geometry_msgs::Pose& pose,
                                std::optional<amhmvs::CameraVelocity> velocity) {
-  if (!pose_frame.empty() && pose_frame != config_.fixed_frame) {
+  if (!pose_frame.empty() && pose_frame != config_.node.fixed_frame) {
     ROS_WARN_ONCE("%s frame '%s' is not ~fixed_frame '%s': the poses are used as they are",
-                  config_.input_mode.c_str(), pose_frame.c_str(), config_.fixed_frame.c_str());
+                  config_.node.input_mode.c_str(), pose_frame.c_str(), config_.node.fixed_frame.c_str());
   }
   Frame frame;
   frame.header = image->header;

@@ -22,20 +22,17 @@ void MappingNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
 
-  std::string errors;
-  config_ = loadMappingConfig(pnh, &errors);
-  if (!errors.empty()) NODELET_ERROR("invalid parameters, defaults used instead:\n%s", errors.c_str());
-  if (config_.map_directory.empty()) {
+  const LoadedConfig loaded = loadMappingConfig(pnh);
+  config_ = loaded.config;
+  if (!loaded.errors.empty()) NODELET_ERROR("invalid parameters, defaults used instead:\n%s", loaded.errors.c_str());
+  for (const std::string& unknown : loaded.unknown) NODELET_WARN("unknown parameter ~%s: ignored", unknown.c_str());
+  unknown_parameters_ = loaded.unknown;
+  if (config_.node.map_directory.empty()) {
     const char* pwd = std::getenv("PWD");  // roslaunch's own directory (a node runs in ~/.ros)
-    config_.map_directory = pwd ? pwd : boost::filesystem::current_path().string();
+    config_.node.map_directory = pwd ? pwd : boost::filesystem::current_path().string();
   }
 
-  amhmvs::PipelineOptions options;
-  options.mapper = config_.mapper;
-  options.estimator = config_.estimator;
-  options.backend = amhmvs::parseBackend(config_.backend);
-  options.queue_size = static_cast<size_t>(config_.queue_size);
-  options.skip_to_newest = config_.skip_to_newest;
+  const amhmvs::PipelineOptions& options = config_.pipeline;
   const std::string name = getName();
   pipeline_.reset(new amhmvs::MappingPipeline(options, [name](amhmvs::MappingPipeline::LogLevel level,
                                                               const std::string& line) {
@@ -47,7 +44,7 @@ void MappingNodelet::onInit() {
   }));
 
   // Auto size: known once the backend is (the CPU's fallback included).
-  config_.max_image_size = effectiveMaxImageSize(config_.max_image_size, pipeline_->backend());
+  config_.max_image_size = amhmvs::effectiveMaxImageSize(config_.max_image_size, pipeline_->backend());
 
   outputs_.reset(new MappingOutputs(nh, config_, [this] {
     map_requested_ = true;
@@ -63,7 +60,7 @@ void MappingNodelet::onInit() {
   diagnostics_->setHardwareID("amhmvs_mapping");
   diagnostics_->add("depth estimation", this, &MappingNodelet::diagnose);
   // Wall timer: simulated time stops when a bag ends, the worker may not.
-  diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(config_.diagnostics_period),
+  diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(config_.node.diagnostics_period),
                                           [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
 
   // Runtime tunables, starting from the loaded parameters.
@@ -83,11 +80,11 @@ void MappingNodelet::onInit() {
   };
   callbacks.pose_update = [this](int64_t id, const Eigen::Isometry3d& pose) { pipeline_->pushPoseUpdate(id, pose); };
   inputs_.reset(new MappingInputs(nh, pnh, config_, std::move(callbacks)));
-  NODELET_INFO("amhmvs mapping: input mode %s, queue %d, up to %d sources, default depth %.2f..%.2f m, "
+  NODELET_INFO("amhmvs mapping: input mode %s, queue %zu, up to %d sources, default depth %.2f..%.2f m, "
                "max image size %d, voxel size %.3f m (published with %d or more points), backend %s",
-               config_.input_mode.c_str(), config_.queue_size, config_.mapper.sources.max_sources,
-               config_.mapper.depth_range.default_min, config_.mapper.depth_range.default_max,
-               config_.max_image_size, config_.mapper.map.leaf_size, config_.mapper.map.min_points_per_voxel,
+               config_.node.input_mode.c_str(), config_.pipeline.queue_size, config_.pipeline.mapper.sources.max_sources,
+               config_.pipeline.mapper.depth_range.default_min, config_.pipeline.mapper.depth_range.default_max,
+               config_.max_image_size, config_.pipeline.mapper.map.leaf_size, config_.pipeline.mapper.map.min_points_per_voxel,
                amhmvs::backendName(pipeline_->backend()));
 }
 
@@ -117,7 +114,7 @@ void MappingNodelet::workerLoop() {
     outputs_->publishMap(*pipeline_, map_requested_.exchange(false));
     // Nothing was done: wait for input, at most a map period (a changed map
     // not yet published then goes out).
-    if (outputs.empty() && pipeline_->stats().idle) pipeline_->waitForWork(config_.map_publish_period);
+    if (outputs.empty() && pipeline_->stats().idle) pipeline_->waitForWork(config_.node.map_publish_period);
   }
 }
 
@@ -126,7 +123,7 @@ bool MappingNodelet::saveMapService(amhmvs_mapping::SaveMap::Request& req, amhmv
     if (req.path.empty()) throw amhmvs::InputError("empty path: give a file name ending in .ply or .pcd");
     // Relative paths go to ~map_directory (default: where roslaunch was
     // started, not the node's working directory ~/.ros).
-    const boost::filesystem::path path = boost::filesystem::absolute(req.path, config_.map_directory);
+    const boost::filesystem::path path = boost::filesystem::absolute(req.path, config_.node.map_directory);
     pipeline_->withMapper([&](const amhmvs::OnlineMapper& mapper) {
       amhmvs::writeMap(path.string(), mapper.map());
       res.message = "saved " + std::to_string(mapper.map().voxelCount()) + " points to " + path.string();
@@ -145,16 +142,16 @@ void MappingNodelet::reconfigure(MappingTunablesConfig& tunables, uint32_t /*lev
   applyTunables(tunables, &reconfigured_);
   if (inputs_) {
     try {
-      inputs_->setKeyframePicking(reconfigured_.keyframePicking());
+      inputs_->setKeyframePicking(reconfigured_.keyframes);
     } catch (const amhmvs::InputError& e) {
       NODELET_ERROR("reconfigure: %s (keyframe picking unchanged)", e.what());
     }
   }
-  pipeline_->setOptions(reconfigured_.mapper, reconfigured_.estimator);
+  pipeline_->setOptions(reconfigured_.pipeline.mapper, reconfigured_.pipeline.estimator);
   NODELET_INFO("reconfigured: %d iterations, up to %d sources, voxel size %.3f m, published with %d or more points "
                "(applied before the next keyframe)",
-               reconfigured_.estimator.num_iterations, reconfigured_.mapper.sources.max_sources,
-               reconfigured_.mapper.map.leaf_size, reconfigured_.mapper.map.min_points_per_voxel);
+               reconfigured_.pipeline.estimator.num_iterations, reconfigured_.pipeline.mapper.sources.max_sources,
+               reconfigured_.pipeline.mapper.map.leaf_size, reconfigured_.pipeline.mapper.map.min_points_per_voxel);
 }
 
 bool MappingNodelet::resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
@@ -193,30 +190,46 @@ void MappingNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   const ros::WallTime now = ros::WallTime::now();
   // Drops within the window: a WARN that clears once drops stop.
   drop_history_.emplace_back(now, dropped);
-  while (drop_history_.size() > 1 && (now - drop_history_[1].first).toSec() >= config_.drop_warning_window)
+  while (drop_history_.size() > 1 && (now - drop_history_[1].first).toSec() >= config_.node.drop_warning_window)
     drop_history_.pop_front();
   const uint64_t recent_drops = dropped - drop_history_.front().second;
-  const std::vector<std::string> silence = inputs_ ? inputs_->silenceProblems(config_.silence_timeout)
+  const std::vector<std::string> silence = inputs_ ? inputs_->silenceProblems(config_.node.silence_timeout)
                                                    : std::vector<std::string>();
   std::string silence_text;
   for (const std::string& line : silence) silence_text += (silence_text.empty() ? "" : "; ") + line;
-  if (!silence.empty()) {
+  const bool ended = inputs_ && inputs_->inputEnded(config_.node.silence_timeout);
+  if (ended && !input_ended_reported_)
+    NODELET_INFO("input ended: nothing on any input topic for %.0f s; %s", config_.node.silence_timeout,
+                 pipeline.idle ? "all keyframes are mapped (idle)" : "mapping the queued keyframes");
+  if (ended && pipeline.idle && !idle_reported_) {
+    NODELET_INFO("idle: every keyframe received is mapped (call ~save_map to write the map)");
+    idle_reported_ = true;
+  }
+  input_ended_reported_ = ended;
+  if (!ended) idle_reported_ = false;
+  if (ended && recent_drops == 0) {
+    status.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "input ended, %s (%lu inputs dropped in all)",
+                    pipeline.idle ? "idle" : "mapping the queued keyframes", static_cast<unsigned long>(dropped));
+  } else if (!silence.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, silence_text);
-    if (last_silence_report_.isZero() || (now - last_silence_report_).toSec() >= config_.silence_timeout) {
+    if (last_silence_report_.isZero() || (now - last_silence_report_).toSec() >= config_.node.silence_timeout) {
       NODELET_WARN("inputs: %s", silence_text.c_str());
       last_silence_report_ = now;
     }
   } else if (recent_drops > 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%lu inputs dropped in the last %.0f s (%lu in all)",
-                    static_cast<unsigned long>(recent_drops), config_.drop_warning_window,
+                    static_cast<unsigned long>(recent_drops), config_.node.drop_warning_window,
                     static_cast<unsigned long>(dropped));
   } else {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "%s (%lu inputs dropped in all)", paused_ ? "paused" : "ok",
                     static_cast<unsigned long>(dropped));
   }
   status.add("dropped in window", recent_drops);
+  std::string unknown;
+  for (const std::string& name : unknown_parameters_) unknown += (unknown.empty() ? "" : "; ") + name;
+  status.add("unknown parameters", unknown.empty() ? "none" : unknown);
   status.add("backend", pipeline.backend);
-  status.add("input mode", config_.input_mode);
+  status.add("input mode", config_.node.input_mode);
   status.add("paused", static_cast<bool>(paused_));
   status.add("idle", pipeline.idle);
   status.add("last estimate ms", pipeline.last_estimate_ms);

@@ -41,7 +41,7 @@ MappingOutputs::MappingOutputs(ros::NodeHandle& nh, const MappingConfig& config,
     : config_(config) {
   it_.reset(new image_transport::ImageTransport(nh));
   depth_pub_ = it_->advertiseCamera("depth/image", 5);
-  if (config_.publish_depth_mm) depth_mm_pub_ = it_->advertiseCamera("depth_mm/image", 5);
+  if (config_.node.publish_depth_mm) depth_mm_pub_ = it_->advertiseCamera("depth_mm/image", 5);
   confidence_pub_ = it_->advertise("confidence/image", 5);
   preview_pub_ = it_->advertise("depth/preview", 5);
   cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("keyframe_cloud", 5);
@@ -51,7 +51,7 @@ MappingOutputs::MappingOutputs(ros::NodeHandle& nh, const MappingConfig& config,
       "map", 1, [on_map_subscriber](const ros::SingleSubscriberPublisher&) { on_map_subscriber(); },
       ros::SubscriberStatusCallback(), ros::VoidConstPtr(), true);
   markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("keyframe_markers", 5);
-  if (!config_.view_frame.empty()) view_broadcaster_.reset(new tf2_ros::StaticTransformBroadcaster());
+  if (!config_.node.view_frame.empty()) view_broadcaster_.reset(new tf2_ros::StaticTransformBroadcaster());
 }
 
 void MappingOutputs::publishViewFrame(const amhmvs::KeyframeResult& result, const ros::Time& stamp) {
@@ -61,16 +61,16 @@ void MappingOutputs::publishViewFrame(const amhmvs::KeyframeResult& result, cons
     return;
   geometry_msgs::TransformStamped view;
   view.header.stamp = stamp;
-  view.header.frame_id = config_.fixed_frame;
-  view.child_frame_id = config_.view_frame;
+  view.header.frame_id = config_.node.fixed_frame;
+  view.child_frame_id = config_.node.view_frame;
   view.transform.translation.x = anchor.x();
   view.transform.translation.y = anchor.y();
   view.transform.translation.z = anchor.z();
   view.transform.rotation.w = 1;  // the fixed frame's axes: rviz's orbit view keeps its own up
   view_broadcaster_->sendTransform(view);
   view_published_ = true;
-  ROS_INFO("view frame %s at (%.2f, %.2f, %.2f) in %s, where keyframe %ld looks", config_.view_frame.c_str(),
-           anchor.x(), anchor.y(), anchor.z(), config_.fixed_frame.c_str(), static_cast<long>(result.id));
+  ROS_INFO("view frame %s at (%.2f, %.2f, %.2f) in %s, where keyframe %ld looks", config_.node.view_frame.c_str(),
+           anchor.x(), anchor.y(), anchor.z(), config_.node.fixed_frame.c_str(), static_cast<long>(result.id));
 }
 
 void MappingOutputs::publish(const amhmvs::KeyframeResult& result, const KeyframeHeaders& headers,
@@ -85,13 +85,13 @@ void MappingOutputs::publish(const amhmvs::KeyframeResult& result, const Keyfram
     });
     std_msgs::Header fixed;
     fixed.stamp = header.stamp;
-    fixed.frame_id = config_.fixed_frame;
+    fixed.frame_id = config_.node.fixed_frame;
     const double frustum_depth = kFrustumDepthFraction * result.selection.scene_depth.depth;
     markers_pub_.publish(keyframeMarkers(cameras, result.id, result.selection.source_ids, frustum_depth, fixed));
   }
   // With the calibrated confidence a depth map is published when its
   // keyframe is fused (masked; possibly after later keyframes), else at once.
-  if (config_.mapper.confidence.enabled) {
+  if (config_.pipeline.mapper.confidence.enabled) {
     for (const amhmvs::FusedKeyframe& fused : result.fused) {
       std_msgs::Header fused_header;
       if (fused.published.empty() || !headers.get(fused.id, &fused_header)) continue;
@@ -127,14 +127,14 @@ void MappingOutputs::publishDepth(const amhmvs::ImageF& depth, const amhmvs::Pin
 void MappingOutputs::publishMap(const amhmvs::MappingPipeline& pipeline, bool requested) {
   if (map_pub_.getNumSubscribers() == 0) return;  // a new subscriber's connection asks for one
   const ros::WallTime now = ros::WallTime::now();
-  const bool due = (now - last_map_publish_).toSec() >= config_.map_publish_period;
+  const bool due = (now - last_map_publish_).toSec() >= config_.node.map_publish_period;
   sensor_msgs::PointCloud2Ptr msg;
   pipeline.withMapper([&](const amhmvs::OnlineMapper& mapper) {
     const bool changed = !published_map_ || mapper.mapRevision() != published_map_revision_;
     if (!requested && !(changed && due)) return;  // unchanged: the latched message stands
     std_msgs::Header header;
     header.stamp = ros::Time::now();
-    header.frame_id = config_.fixed_frame;
+    header.frame_id = config_.node.fixed_frame;
     msg = cloudMsg(mapper.map().exportCloud(), header);
     published_map_revision_ = mapper.mapRevision();
   });

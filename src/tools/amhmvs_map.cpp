@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/mapping/mapping_parameters.h"
 #include "keyframe_picker.h"
 #include "map_options.h"
 #include "map_outputs.h"
@@ -105,6 +106,12 @@ size_t framesLookedAt(size_t frames, const FrameSelection& selection) {
 int run(const std::vector<std::string>& args) {
   const std::string sequence_dir = args[0], output_dir = args[1];
   MapToolOptions options = parseMapToolArguments(std::vector<std::string>(args.begin() + 2, args.end()));
+  // max_image_size -1 (auto) needs the backend before the first frame is read.
+  std::string no_gpu;
+  const Backend backend = options.pipeline.backend != Backend::kAuto ? options.pipeline.backend
+                          : cudaBackendAvailable(&no_gpu)           ? Backend::kCuda
+                                                                    : Backend::kCpu;
+  options.max_image_size = effectiveMaxImageSize(options.max_image_size, backend);
   const PosedSequence sequence = readPosedSequence(sequence_dir, options.sequence);
   PickedKeyframes picking = pickKeyframes(sequence.frames, options.frames);
   const std::vector<size_t>& picked = picking.indices;
@@ -144,5 +151,13 @@ int run(const std::vector<std::string>& args) {
 }  // namespace amhmvs
 
 int main(int argc, char** argv) {
+  // --print_parameters yaml|markdown: config/mapping.yaml or docs/parameters.md, no sequence needed.
+  for (int i = 1; i + 1 < argc; ++i) {
+    const std::string flag = argv[i], format = argv[i + 1];
+    if (flag != "--print_parameters") continue;
+    if (format != "yaml" && format != "markdown") break;  // refused by the parser below
+    std::cout << (format == "yaml" ? amhmvs::mappingParametersYaml() : amhmvs::mappingParametersMarkdown());
+    return 0;
+  }
   return amhmvs::runToolMain("amhmvs_map", amhmvs::mapToolUsage(), argc, argv, 2, true, amhmvs::run);
 }

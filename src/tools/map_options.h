@@ -21,11 +21,11 @@ struct FrameSelection {
 };
 
 struct MapToolOptions {
-  PipelineOptions pipeline;   // its queue_size is set by resolvedQueueSize()
+  PipelineOptions pipeline;   // from MappingParameters; its queue_size is set by resolvedQueueSize()
   size_t queue_size = 0;      // --queue_size; 0 = the default of the mode
   PosedSequenceOptions sequence;
   FrameSelection frames;
-  int max_image_size = 0;     // longest side of the processed images; 0 = as recorded
+  int max_image_size = -1;    // longest side of the processed images; 0 = as recorded, -1 = auto (run() resolves it)
   double depth_min = 0, depth_max = 0;  // > 0: the depth range of every keyframe
   double realtime_rate = 0;   // > 0: replay at this multiple of the recording's rate
   bool write_depth = true;

@@ -8,6 +8,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
+#include "amhmvs_mapping/mapping/mapping_parameters.h"
 #include "keyframe_picker.h"
 #include "map_options.h"
 #include "test_helpers.h"
@@ -108,11 +109,11 @@ TEST(MapTool, ParsesOptionsAndRefusesBadOnes) {
   EXPECT_FALSE(options.write_clouds);
   EXPECT_TRUE(options.write_depth);
   EXPECT_EQ(options.depth_max, 4);
-  // Queue: offline holds every keyframe; realtime the pipeline's default.
+  // Queue: offline holds every keyframe; realtime the default the nodelet runs.
   EXPECT_EQ(resolvedQueueSize(options, 17), 17u);
   MapToolOptions realtime = options;
   realtime.realtime_rate = 1;
-  EXPECT_EQ(resolvedQueueSize(realtime, 17), PipelineOptions().queue_size);
+  EXPECT_EQ(resolvedQueueSize(realtime, 17), MappingParameters().pipeline.queue_size);  // the nodelet's 32
   realtime.queue_size = 2;
   EXPECT_EQ(resolvedQueueSize(realtime, 17), 2u);
   EXPECT_TRUE(options.pipeline.skip_to_newest);

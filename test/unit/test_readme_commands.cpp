@@ -1,11 +1,12 @@
-// Every command of the README runs as written, as far as a test can tell
-// without running minutes of work: each command line (```bash blocks,
-// 4-space indented blocks, `roslaunch|rostest amhmvs_mapping ...` in
-// backticks) that calls this package names a program, script, launch or test
-// file that exists, and every option it passes exists: `--name` in the
-// program's --help (or the script's text), `name:=` an <arg> of the launch or
-// test file. A command's $AMHMVS_DATA_DIR is explained in the README. And the
-// check can fail: wrong names in a made-up README are reported.
+// Every command of the README and of the reference pages under docs/ runs as
+// written, as far as a test can tell without running minutes of work: each
+// command line (```bash blocks, 4-space indented blocks, `roslaunch|rostest
+// amhmvs_mapping ...` in backticks) that calls this package names a program,
+// script, launch or test file that exists, and every option it passes exists:
+// `--name` in the program's --help (or the script's text), `name:=` an <arg>
+// of the launch or test file. A page that uses $AMHMVS_DATA_DIR explains it.
+// Every file a page links to (or names under docs/results/) exists. And the
+// checks can fail: wrong names in a made-up page are reported.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -130,13 +131,49 @@ std::vector<std::string> readmeProblems(const std::string& readme, Checker* chec
 
 Checker makeChecker() { return Checker{AMHMVS_SOURCE_DIR, AMHMVS_TOOLS_DIR, {}}; }
 
+// The pages whose commands are checked: the README and the reference pages.
+const std::vector<std::string> kPages = {"README.md",        "docs/method.md",      "docs/cli.md",
+                                         "docs/ros.md",      "docs/accuracy.md",    "docs/performance.md",
+                                         "docs/reliability.md", "docs/design.md"};
+
+// Files a page refers to that do not exist: relative markdown links (from the
+// page's folder) and `docs/results/...` names (from the repository root).
+std::vector<std::string> missingFiles(const std::string& page, const std::string& markdown, const fs::path& root) {
+  std::vector<std::string> missing;
+  static const std::regex link(R"(\]\(([^)#\s]+)(#[^)]*)?\))");
+  for (std::sregex_iterator it(markdown.begin(), markdown.end(), link), end; it != end; ++it) {
+    const std::string target = (*it)[1];
+    if (target.find("://") != std::string::npos || target.rfind("mailto:", 0) == 0) continue;
+    if (!fs::exists((root / page).parent_path() / target)) missing.push_back(page + ": link to " + target);
+  }
+  static const std::regex result("`(docs/results/[^`\\s]+)`");
+  for (std::sregex_iterator it(markdown.begin(), markdown.end(), result), end; it != end; ++it) {
+    if (!fs::exists(root / std::string((*it)[1]))) missing.push_back(page + ": names " + std::string((*it)[1]));
+  }
+  return missing;
+}
+
 TEST(ReadmeCommands, EveryCommandNamesWhatExists) {
   Checker checker = makeChecker();
-  const std::string readme = readText(fs::path(AMHMVS_SOURCE_DIR) / "README.md");
-  const std::vector<std::string> lines = commandLines(readme);
-  EXPECT_GE(lines.size(), 10u);
+  size_t total = 0;
   std::ostringstream all;
-  for (const std::string& problem : readmeProblems(readme, &checker)) all << problem << "\n";
+  for (const std::string& page : kPages) {
+    const std::string text = readText(fs::path(AMHMVS_SOURCE_DIR) / page);
+    EXPECT_FALSE(text.empty()) << page << " is missing or empty";
+    const std::vector<std::string> lines = commandLines(text);
+    if (page == "README.md") EXPECT_GE(lines.size(), 10u) << page;
+    total += lines.size();
+    for (const std::string& problem : readmeProblems(text, &checker)) all << page << ": " << problem << "\n";
+  }
+  EXPECT_GE(total, 40u);
+  EXPECT_EQ(all.str(), "");
+}
+
+TEST(ReadmeCommands, EveryReferencedFileExists) {
+  const fs::path root(AMHMVS_SOURCE_DIR);
+  std::ostringstream all;
+  for (const std::string& page : kPages)
+    for (const std::string& missing : missingFiles(page, readText(root / page), root)) all << missing << "\n";
   EXPECT_EQ(all.str(), "");
 }
 
@@ -157,6 +194,17 @@ TEST(ReadmeCommands, WrongNamesAreReported) {
   for (const char* expected : {"--no_such_option", "amhmvs_nothing", "no arg min_depth", "no_such.test",
                                "never explained"})
     EXPECT_NE(all.str().find(expected), std::string::npos) << expected << " not reported in:\n" << all.str();
+  // Links and result files that do not exist are reported, ones that do are not.
+  const std::vector<std::string> missing =
+      missingFiles("docs/fake.md",
+                   "[a](ros.md) [b](../README.md#top) [c](https://example.org/x) [d](no_such_page.md) "
+                   "`docs/results/no_such_log.txt` ![e](images/no_such.png)\n",
+                   fs::path(AMHMVS_SOURCE_DIR));
+  std::ostringstream gone;
+  for (const std::string& line : missing) gone << line << "\n";
+  EXPECT_EQ(missing.size(), 3u) << gone.str();
+  for (const char* expected : {"no_such_page.md", "no_such_log.txt", "no_such.png"})
+    EXPECT_NE(gone.str().find(expected), std::string::npos) << expected << " not reported in:\n" << gone.str();
 }
 
 }  // namespace

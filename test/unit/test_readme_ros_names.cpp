@@ -1,4 +1,5 @@
-// The README's nodelet section documents only ROS names that exist: topics
+// The nodelet section of docs/ros.md (the ROS interface's reference page;
+// the README links to it) documents only ROS names that exist: topics
 // and services advertised or subscribed in src/ros/*.cpp, parameters
 // (`~name`) that are keys of config/mapping.yaml, amhmvs_mapping/Type that are
 // messages or services of this package. And the check can fail: fake names
@@ -18,6 +19,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The page and the heading of its section that is checked.
+const char* kRosPage = "docs/ros.md";
 const char* kNodeletHeading = "## Online mapping: `amhmvs_mapping/MappingNodelet`";
 
 std::string readText(const fs::path& path) {
@@ -166,8 +169,8 @@ std::string joined(const std::vector<std::string>& lines) {
 class ReadmeRosNames : public ::testing::Test {
  protected:
   void SetUp() override {
-    section_ = section(readText(fs::path(AMHMVS_SOURCE_DIR) / "README.md"), kNodeletHeading);
-    ASSERT_FALSE(section_.empty()) << "README.md has no section " << kNodeletHeading;
+    section_ = section(readText(fs::path(AMHMVS_SOURCE_DIR) / kRosPage), kNodeletHeading);
+    ASSERT_FALSE(section_.empty()) << kRosPage << " has no section " << kNodeletHeading;
     known_ = collectKnownNames(AMHMVS_SOURCE_DIR);
   }
   std::string section_;
@@ -181,7 +184,7 @@ TEST_F(ReadmeRosNames, EveryDocumentedNameExistsInTheCode) {
   EXPECT_TRUE(known_.private_services.count("reset"));
   EXPECT_TRUE(known_.parameters.count("estimator/iterations"));
   const std::vector<std::string> unknown = unknownNames(section_, known_);
-  EXPECT_TRUE(unknown.empty()) << "README section '" << kNodeletHeading << "' documents names the code lacks:\n"
+  EXPECT_TRUE(unknown.empty()) << kRosPage << " section '" << kNodeletHeading << "' documents names the code lacks:\n"
                                << joined(unknown);
 }
 

@@ -104,6 +104,9 @@ class MappingInputs {
   // another input topic delivers; images and camera_info (and poses) that
   // arrive but never synchronise. Topics by their resolved names.
   std::vector<std::string> silenceProblems(double silence_s) const;
+  // Every input topic delivered once and none for silence_s: the input ended
+  // (a bag finished, the camera stopped); silenceProblems() then reports nothing.
+  bool inputEnded(double silence_s) const;
 
  private:
   using PoseSync = message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::CameraInfo,
@@ -163,6 +166,7 @@ class MappingInputs {
   // Counts a dropped input and reports it (throttled per reason).
   void drop(uint64_t InputStats::*counter, const std::string& detail);
 
+  bool endedLocked(double silence_s) const;  // stats_mutex_ held
   MappingConfig config_;
   Callbacks callbacks_;
   std::unique_ptr<image_transport::ImageTransport> it_;

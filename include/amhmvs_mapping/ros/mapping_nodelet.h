@@ -16,6 +16,7 @@
 #include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
@@ -75,6 +76,9 @@ class MappingNodelet : public nodelet::Nodelet {
   // ~drop_warning_window (WARN clears when drops stop).
   std::deque<std::pair<ros::WallTime, uint64_t>> drop_history_;
   ros::WallTime last_silence_report_;
+  bool input_ended_reported_ = false;  // "input ended" logged once per silence
+  bool idle_reported_ = false;
+  std::vector<std::string> unknown_parameters_;  // under the private namespace, reported in diagnostics
 };
 
 }  // namespace amhmvs_mapping
