@@ -30,7 +30,7 @@ export AMHMVS_DATA_DIR=$data
 
 if [ "$fast" = true ]; then
   AMHMVS_MAKE_TARGETS="amhmvs_unit_tests" "$here/scripts/build.sh"
-  slow='RealData.*:FuseCliRealData.*:DepthCliColmap.*:MapCli.*:CoarseToFine.*:EstimatorOnSyntheticScene.*:GeometricConsistency.GeometricPassImproves*:SyntheticRealism.*:MapCliRoom*:OnlineMapperPoseRefinement.*:KeyframeBundleAdjustment.*:ReadmeCommands.*'
+  slow='RealData.*:FuseCliRealData.*:DepthCliColmap.*:MapCli.*:EstimatorOnSyntheticScene.*:GeometricConsistency.GeometricPassImproves*'
   results=$build/test_results/fast_unit_tests.xml
   mkdir -p "$(dirname "$results")"
   start=$(date +%s)
