@@ -280,7 +280,7 @@ PublishedDepth MappingPipeline::publish(const FusionView& reference, const std::
 
 void MappingPipeline::report(LogLevel level, const std::string& kind, const std::string& line) {
   if (!log_) return;
-  if (level != LogLevel::kInfo && options_.report_period_s > 0) {
+  if ((level == LogLevel::kWarn || level == LogLevel::kError) && options_.report_period_s > 0) {
     // Throttled per kind, so that a flood of one problem stays readable.
     std::lock_guard<std::mutex> lock(report_mutex_);
     const double now = steadySeconds();
@@ -566,9 +566,11 @@ void MappingPipeline::account(const PipelineOutput& output) {
   // Fusions (again, or deferred) have no depth map either.
   const bool source_only = !result.has_depth && !result.fused_again && !result.deferred_fusion;
   if (source_only) {
+    // One short line; why each stored keyframe was refused can run to kilobytes.
     report(LogLevel::kInfo, "no_sources",
-           keyframeName(result.id) + ": no source view yet (" + result.selection.reason +
-               "): stored as a source; its depth map follows once later keyframes qualify");
+           keyframeName(result.id) + ": no source view yet: stored as a source; its depth map follows once later "
+                                     "keyframes qualify");
+    report(LogLevel::kDebug, "no_sources", keyframeName(result.id) + " has no source view: " + result.selection.reason);
   }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   if (source_only) {

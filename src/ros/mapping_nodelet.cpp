@@ -37,6 +37,7 @@ void MappingNodelet::onInit() {
   pipeline_.reset(new amhmvs::MappingPipeline(options, [name](amhmvs::MappingPipeline::LogLevel level,
                                                               const std::string& line) {
     switch (level) {
+      case amhmvs::MappingPipeline::LogLevel::kDebug: ROS_DEBUG_STREAM_NAMED(name, line); break;
       case amhmvs::MappingPipeline::LogLevel::kInfo: ROS_INFO_STREAM_NAMED(name, line); break;
       case amhmvs::MappingPipeline::LogLevel::kWarn: ROS_WARN_STREAM_NAMED(name, line); break;
       default: ROS_ERROR_STREAM_NAMED(name, line);

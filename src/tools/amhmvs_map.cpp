@@ -25,7 +25,7 @@ double secondsSince(Clock::time_point start) {
 // The pipeline's log on stderr; --quiet keeps only warnings and errors.
 MappingPipeline::Log stderrLog(bool quiet) {
   return [quiet](MappingPipeline::LogLevel level, const std::string& line) {
-    if (quiet && level == MappingPipeline::LogLevel::kInfo) return;
+    if (level == MappingPipeline::LogLevel::kDebug || (quiet && level == MappingPipeline::LogLevel::kInfo)) return;
     const char* prefix = level == MappingPipeline::LogLevel::kError  ? "error: "
                          : level == MappingPipeline::LogLevel::kWarn ? "warning: "
                                                                      : "";

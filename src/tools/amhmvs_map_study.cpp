@@ -161,7 +161,7 @@ RunRecord runOnce(const std::vector<Keyframe>& keyframes, MapToolOptions options
   options.pipeline.mapper.confidence.enabled = true;
   options.pipeline.mapper.confidence.min_probability = 0;  // the study masks by itself
   const MappingPipeline::Log log = [](MappingPipeline::LogLevel level, const std::string& line) {
-    if (level != MappingPipeline::LogLevel::kInfo) std::cerr << "amhmvs_map_study: " << line << "\n";
+    if (level == MappingPipeline::LogLevel::kWarn || level == MappingPipeline::LogLevel::kError) std::cerr << "amhmvs_map_study: " << line << "\n";
   };
   MappingPipeline pipeline(options.pipeline, [cache](const DepthProblem& problem) { return cache->estimate(problem); },
                            EstimateFunction(), "cpu", log);

@@ -176,7 +176,7 @@ const std::vector<PipelineStatField>& pipelineStatFields();
 
 class MappingPipeline {
  public:
-  enum class LogLevel { kInfo, kWarn, kError };
+  enum class LogLevel { kDebug, kInfo, kWarn, kError };
   using Log = std::function<void(LogLevel, const std::string&)>;
   // The estimate a pipeline calls (tests inject failing or counting ones).
   using EstimatorFactory = std::function<EstimateFunction(Backend backend, const PatchMatchOptions&)>;
