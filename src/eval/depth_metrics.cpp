@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/core/text.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/pfm.h"
 
@@ -74,11 +75,7 @@ std::map<std::string, std::string> readKeyValues(const std::string& path) {
   while (std::getline(in, line)) {
     const size_t eq = line.find('=');
     if (eq == std::string::npos) continue;
-    auto trim = [](std::string s) {
-      const size_t b = s.find_first_not_of(" \t\r"), e = s.find_last_not_of(" \t\r");
-      return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
-    };
-    values[trim(line.substr(0, eq))] = trim(line.substr(eq + 1));
+    values[trimmed(line.substr(0, eq))] = trimmed(line.substr(eq + 1));
   }
   return values;
 }

@@ -8,18 +8,13 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/core/text.h"
 
 namespace amhmvs {
 namespace {
 
 template <typename Options>
 using Table = std::vector<OptionField<Options>>;
-
-std::string trimmed(const std::string& text) {
-  const size_t first = text.find_first_not_of(" \t\r");
-  if (first == std::string::npos) return "";
-  return text.substr(first, text.find_last_not_of(" \t\r") - first + 1);
-}
 
 // A string member: any text (quotes of a yaml scalar removed by the reader).
 template <typename Options>
@@ -494,7 +489,7 @@ std::string MappingParameters::validate() const {
   appendProblems("node", node.validate(), &why);
   why << pipeline.validate();
   appendProblems("keyframe picking", keyframes.validate(), &why);
-  if (!(max_image_size == -1 || max_image_size == 0 || max_image_size >= 16))
+  if (!validMaxImageSize(max_image_size))
     why << "max_image_size must be -1 (auto), 0 (full size) or >= 16 (got " << max_image_size << ")\n";
   return why.str();
 }
@@ -651,15 +646,20 @@ std::vector<std::pair<std::string, std::string>> readParameterFile(const std::st
   return settings;
 }
 
-void applyParameterFile(const std::string& path, MappingParameters* parameters) {
+std::vector<std::string> applyParameterFile(const std::string& path, MappingParameters* parameters) {
+  std::vector<std::string> names;
   for (const auto& setting : readParameterFile(path)) {
     try {
       setMappingParameter(setting.first, setting.second, parameters);
     } catch (const InputError& e) {
       throw InputError(path + ": " + e.what());
     }
+    names.push_back(setting.first);
   }
+  return names;
 }
+
+bool validMaxImageSize(int configured) { return configured == -1 || configured == 0 || configured >= 16; }
 
 int effectiveMaxImageSize(int configured, Backend backend) {
   if (configured != -1) return configured;

@@ -101,17 +101,11 @@ std::string PipelineOptions::validate() const {
 MappingPipeline::MappingPipeline(const PipelineOptions& options, Log log) : options_(options), log_(std::move(log)) {
   const std::string problems = options.validate();
   if (!problems.empty()) throw InputError("mapping pipeline options:\n" + problems);
-  Backend backend = options.backend;
-  if (backend == Backend::kAuto) {
-    std::string description;
-    if (cudaBackendAvailable(&description)) {
-      backend = Backend::kCuda;
-    } else {
-      report(LogLevel::kWarn, "backend",
-             description + ", using the CPU: it needs a small max_image_size (e.g. 256..320) for online rates");
-      backend = Backend::kCpu;
-    }
-  }
+  std::string no_gpu;
+  const Backend backend = resolvedBackend(options.backend, &no_gpu);
+  if (options.backend == Backend::kAuto && backend == Backend::kCpu)
+    report(LogLevel::kWarn, "backend",
+           no_gpu + ", using the CPU: it needs a small max_image_size (e.g. 256..320) for online rates");
   try {
     estimator_.reset(new DepthEstimator(options.estimator, backend, options.resources));
   } catch (const BackendError& e) {

@@ -297,4 +297,12 @@ DeviceDepthMap DepthEstimator::lastDeviceOutputs() const {
 
 bool cudaBackendAvailable(std::string* description) { return mvs::cudaDeviceUsable(description); }
 
+Backend resolvedBackend(Backend requested, std::string* why_not_gpu) {
+  if (requested != Backend::kAuto) return requested;
+  std::string description;
+  if (cudaBackendAvailable(&description)) return Backend::kCuda;
+  if (why_not_gpu) *why_not_gpu = description;
+  return Backend::kCpu;
+}
+
 }  // namespace amhmvs

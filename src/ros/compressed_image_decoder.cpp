@@ -6,17 +6,13 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sensor_msgs/image_encodings.h>
 
+#include "amhmvs_mapping/core/text.h"
+
 namespace amhmvs_mapping {
 
 namespace enc = sensor_msgs::image_encodings;
 
 namespace {
-
-std::string trimmed(const std::string& text) {
-  const auto first = text.find_first_not_of(' ');
-  if (first == std::string::npos) return "";
-  return text.substr(first, text.find_last_not_of(' ') - first + 1);
-}
 
 // The encoding of what cv::imdecode returned: OpenCV's BGR order, unless the
 // publisher compressed the bytes as "rgb" (then they come back in RGB order).
@@ -35,7 +31,7 @@ std::string decodedEncoding(const cv::Mat& image, bool rgb_order) {
 sensor_msgs::ImagePtr decodeCompressedImage(const sensor_msgs::CompressedImage& msg) {
   const std::string& format = msg.format;
   const auto split = format.find(';');
-  const std::string wanted = split == std::string::npos ? "" : trimmed(format.substr(0, split));
+  const std::string wanted = split == std::string::npos ? "" : amhmvs::trimmed(format.substr(0, split));
   const std::string compression = split == std::string::npos ? format : format.substr(split + 1);
   const bool rgb_order = compression.find("compressed rgb") != std::string::npos;
 

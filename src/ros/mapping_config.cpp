@@ -1,5 +1,6 @@
 #include "amhmvs_mapping/ros/mapping_config.h"
 
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -39,14 +40,16 @@ bool valueText(const XmlRpc::XmlRpcValue& value, std::string* text) {
   return true;
 }
 
-// The parameter names under `ns` (without it), dictionaries walked down.
-void collectNames(const XmlRpc::XmlRpcValue& value, const std::string& prefix, std::vector<std::string>* names) {
+// The parameters of a dictionary by name, nested ones as "group/name"
+// (XmlRpcValue iterates only when not const).
+void collectParameters(XmlRpc::XmlRpcValue& value, const std::string& prefix,
+                       std::map<std::string, XmlRpc::XmlRpcValue>* parameters) {
   if (value.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
-    names->push_back(prefix);
+    (*parameters)[prefix] = value;
     return;
   }
-  XmlRpc::XmlRpcValue copy = value;  // XmlRpcValue's iteration is not const
-  for (auto& entry : copy) collectNames(entry.second, prefix.empty() ? entry.first : prefix + "/" + entry.first, names);
+  for (auto& entry : value)
+    collectParameters(entry.second, prefix.empty() ? entry.first : prefix + "/" + entry.first, parameters);
 }
 
 // Parameters the nodelet's libraries read themselves under its namespace.
@@ -68,19 +71,27 @@ LoadedConfig loadMappingConfig(const ros::NodeHandle& pnh) {
   MappingConfig& c = loaded.config;
   const MappingConfig defaults;
   std::ostringstream err;
-  for (const amhmvs::MappingParameter& parameter : amhmvs::mappingParameterTable()) {
-    XmlRpc::XmlRpcValue value;
-    if (!pnh.getParam(parameter.name, value)) continue;
+  // The namespace in one request: what is set, and what is set that no entry names.
+  XmlRpc::XmlRpcValue all;
+  std::map<std::string, XmlRpc::XmlRpcValue> given;
+  if (ros::param::get(pnh.getNamespace(), all)) collectParameters(all, "", &given);
+  for (const auto& [name, value] : given) {
+    const amhmvs::MappingParameter* parameter = amhmvs::findMappingParameter(name);
+    if (!parameter) {
+      if (!kReadElsewhere.count(name))
+        loaded.unknown.push_back(name + " (did you mean " + amhmvs::closestParameterName(name) + "?)");
+      continue;
+    }
     std::string text;
     if (!valueText(value, &text)) {
-      err << parameter.name << ": not a value of this parameter's type; its default " << parameter.get(defaults)
+      err << name << ": not a value of this parameter's type; its default " << parameter->get(defaults)
           << " is used\n";
       continue;
     }
     try {
-      parameter.set(c, text);
+      parameter->set(c, text);
     } catch (const amhmvs::InputError& e) {
-      err << parameter.name << " = '" << text << "': " << e.what() << "; its default " << parameter.get(defaults)
+      err << name << " = '" << text << "': " << e.what() << "; its default " << parameter->get(defaults)
           << " is used\n";
     }
   }
@@ -89,7 +100,7 @@ LoadedConfig loadMappingConfig(const ros::NodeHandle& pnh) {
   const amhmvs::OnlineMapperOptions& default_mapper = defaults.pipeline.mapper;
   requireValid("node", &c.node, defaults.node, &err);
   requireValid("keyframe picking (keyframe_*)", &c.keyframes, defaults.keyframes, &err);
-  if (!(c.max_image_size == -1 || c.max_image_size == 0 || c.max_image_size >= 16)) {
+  if (!amhmvs::validMaxImageSize(c.max_image_size)) {
     err << "max_image_size must be -1 (auto), 0 (full size) or >= 16 (got " << c.max_image_size << "); using "
         << defaults.max_image_size << "\n";
     c.max_image_size = defaults.max_image_size;
@@ -112,16 +123,6 @@ LoadedConfig loadMappingConfig(const ros::NodeHandle& pnh) {
     err << "pose_refinement/enabled: " << amhmvs::PoseRefiner::unavailableMessage() << "; the tracker's poses are used\n";
   requireValid("estimator", &c.pipeline.estimator, defaults.pipeline.estimator, &err);
   loaded.errors = err.str();
-
-  XmlRpc::XmlRpcValue all;
-  if (ros::param::get(pnh.getNamespace(), all)) {
-    std::vector<std::string> names;
-    collectNames(all, "", &names);
-    for (const std::string& name : names) {
-      if (name.empty() || amhmvs::findMappingParameter(name) || kReadElsewhere.count(name)) continue;
-      loaded.unknown.push_back(name + " (did you mean " + amhmvs::closestParameterName(name) + "?)");
-    }
-  }
   return loaded;
 }
 

@@ -140,7 +140,12 @@ bool MappingNodelet::saveMapService(amhmvs_mapping::SaveMap::Request& req, amhmv
 }
 
 void MappingNodelet::reconfigure(MappingTunablesConfig& tunables, uint32_t /*level*/) {
-  applyTunables(tunables, &reconfigured_);
+  try {
+    applyTunables(tunables, &reconfigured_);
+  } catch (const amhmvs::InputError& e) {
+    NODELET_ERROR("reconfigure: %s (unchanged)", e.what());
+    return;
+  }
   if (inputs_) {
     try {
       inputs_->setKeyframePicking(reconfigured_.keyframes);
@@ -199,14 +204,14 @@ void MappingNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   std::string silence_text;
   for (const std::string& line : silence) silence_text += (silence_text.empty() ? "" : "; ") + line;
   const bool ended = inputs_ && inputs_->inputEnded(config_.node.silence_timeout);
-  if (ended && !input_ended_reported_)
+  if (ended && !input_ended_)
     NODELET_INFO("input ended: nothing on any input topic for %.0f s; %s", config_.node.silence_timeout,
                  pipeline.idle ? "all keyframes are mapped (idle)" : "mapping the queued keyframes");
   if (ended && pipeline.idle && !idle_reported_) {
     NODELET_INFO("idle: every keyframe received is mapped (call ~save_map to write the map)");
     idle_reported_ = true;
   }
-  input_ended_reported_ = ended;
+  input_ended_ = ended;
   if (!ended) idle_reported_ = false;
   if (ended && recent_drops == 0) {
     status.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "input ended, %s (%lu inputs dropped in all)",

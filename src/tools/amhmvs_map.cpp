@@ -107,11 +107,7 @@ int run(const std::vector<std::string>& args) {
   const std::string sequence_dir = args[0], output_dir = args[1];
   MapToolOptions options = parseMapToolArguments(std::vector<std::string>(args.begin() + 2, args.end()));
   // max_image_size -1 (auto) needs the backend before the first frame is read.
-  std::string no_gpu;
-  const Backend backend = options.pipeline.backend != Backend::kAuto ? options.pipeline.backend
-                          : cudaBackendAvailable(&no_gpu)           ? Backend::kCuda
-                                                                    : Backend::kCpu;
-  options.max_image_size = effectiveMaxImageSize(options.max_image_size, backend);
+  options.max_image_size = effectiveMaxImageSize(options.max_image_size, resolvedBackend(options.pipeline.backend));
   const PosedSequence sequence = readPosedSequence(sequence_dir, options.sequence);
   PickedKeyframes picking = pickKeyframes(sequence.frames, options.frames);
   const std::vector<size_t>& picked = picking.indices;
@@ -152,10 +148,13 @@ int run(const std::vector<std::string>& args) {
 
 int main(int argc, char** argv) {
   // --print_parameters yaml|markdown: config/mapping.yaml or docs/parameters.md, no sequence needed.
-  for (int i = 1; i + 1 < argc; ++i) {
-    const std::string flag = argv[i], format = argv[i + 1];
-    if (flag != "--print_parameters") continue;
-    if (format != "yaml" && format != "markdown") break;  // refused by the parser below
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) != "--print_parameters") continue;
+    const std::string format = i + 1 < argc ? argv[i + 1] : "";
+    if (format != "yaml" && format != "markdown") {
+      std::cerr << "amhmvs_map: error: option --print_parameters: '" << format << "' is not yaml or markdown\n";
+      return 1;
+    }
     std::cout << (format == "yaml" ? amhmvs::mappingParametersYaml() : amhmvs::mappingParametersMarkdown());
     return 0;
   }

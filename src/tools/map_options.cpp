@@ -71,22 +71,13 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     else if (name == "write_clouds") options.write_clouds = parseSwitch(name, value);
     else if (name == "write_confidence") options.write_confidence = parseSwitch(name, value);
     else if (name == "config") {
-      for (const auto& setting : readParameterFile(value)) {
-        try {
-          setMappingParameter(setting.first, setting.second, &parameters);
-        } catch (const InputError& e) {
-          throw InputError("--config " + value + ": " + e.what());
-        }
-        given.insert(setting.first);
-      }
+      for (const std::string& set : applyParameterFile(value, &parameters)) given.insert(set);
     } else if (name == "set") {
       const size_t eq = value.find('=');
       if (eq == std::string::npos) throw InputError("option --set: expected group/name=value, got '" + value + "'");
       setMappingParameter(value.substr(0, eq), value.substr(eq + 1), &parameters);
       given.insert(value.substr(0, eq));
     } else if (setParameterFlag(name, value, &parameters, &canonical)) given.insert(canonical);
-    else if (name == "print_parameters")
-      throw InputError("option --print_parameters: '" + value + "' is not yaml or markdown");
     else if (name == "start") frames.start = parseValue<size_t>(name, value);
     else if (name == "count") frames.count = parseValue<size_t>(name, value);
     else if (name == "stride") frames.stride = parseValue<size_t>(name, value);

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/core/option_field.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
 
 namespace amhmvs {
@@ -47,9 +48,7 @@ inline void nextOption(const std::vector<std::string>& arguments, size_t* i,
 
 // A switch's value: "" (given alone), 1/true/yes or 0/false/no.
 inline bool parseSwitch(const std::string& option, const std::string& value) {
-  if (value.empty() || value == "1" || value == "true" || value == "yes") return true;
-  if (value == "0" || value == "false" || value == "no") return false;
-  throw InputError("option --" + option + ": '" + value + "' is not a switch value (1/0, true/false)");
+  return parseSwitchText("--" + option, value);
 }
 
 // Sets the option `name` of `table` from text; false when the table has no

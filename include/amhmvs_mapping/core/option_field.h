@@ -27,9 +27,9 @@ struct OptionField {
 
   std::string name;
   std::string help;
-  std::function<std::string(const Options&)> get;
+  Getter get;
   // Throws InputError when the text is not a value of the option's type.
-  std::function<void(Options&, const std::string&)> set;
+  Setter set;
   bool is_switch = false;  // true/false; on a command line "--name" alone means true
   bool advanced = false;   // tuning most users never need (listed apart in the docs)
   std::string alias;       // an older command-line name that still works (amhmvs_map), or empty

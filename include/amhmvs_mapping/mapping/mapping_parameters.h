@@ -90,13 +90,15 @@ std::string mappingParametersMarkdown();
 // [x, y, z] lists, # comments): ("group/name", value text) in file order.
 // InputError with the file and line for anything else.
 std::vector<std::pair<std::string, std::string>> readParameterFile(const std::string& path);
-// Every setting of such a file applied (InputError naming the file, line and
-// parameter for unknown names and bad values).
-void applyParameterFile(const std::string& path, MappingParameters* parameters);
+// Every setting of such a file applied, in file order; the names set
+// (InputError naming the file and the parameter for unknown names and bad values).
+std::vector<std::string> applyParameterFile(const std::string& path, MappingParameters* parameters);
 
 // The CPU takes seconds per 320 px depth map on 2 cores and minutes at full
 // size: max_image_size -1 (auto) is full size (0) on the GPU and this on the CPU.
 constexpr int kCpuAutoMaxImageSize = 320;
 int effectiveMaxImageSize(int configured, Backend backend);
+// max_image_size's range: -1 (auto), 0 (full size) or >= 16.
+bool validMaxImageSize(int configured);
 
 }  // namespace amhmvs

@@ -231,4 +231,8 @@ class DepthEstimator {
 // names the GPU or says why none is usable.
 bool cudaBackendAvailable(std::string* description);
 
+// `requested`, or for kAuto kCuda when cudaBackendAvailable() and otherwise
+// kCpu (then `why_not_gpu` says why, when given).
+Backend resolvedBackend(Backend requested, std::string* why_not_gpu = nullptr);
+
 }  // namespace amhmvs

@@ -76,8 +76,8 @@ class MappingNodelet : public nodelet::Nodelet {
   // ~drop_warning_window (WARN clears when drops stop).
   std::deque<std::pair<ros::WallTime, uint64_t>> drop_history_;
   ros::WallTime last_silence_report_;
-  bool input_ended_reported_ = false;  // "input ended" logged once per silence
-  bool idle_reported_ = false;
+  bool input_ended_ = false;    // at the last diagnose: "input ended" is logged when this turns true
+  bool idle_reported_ = false;  // "idle" logged since the input ended
   std::vector<std::string> unknown_parameters_;  // under the private namespace, reported in diagnostics
 };
 
