@@ -34,9 +34,6 @@ set(AMHMVS_CORE_SOURCES
   src/core/camera.cpp
   src/core/fresh_memory.cpp
   src/core/image.cpp
-  src/core/synthetic_scene.cpp
-  src/core/realism_options.cpp
-  src/core/realistic_capture.cpp
   src/io/scene.cpp
   src/io/pfm.cpp
   src/io/image_io.cpp
@@ -59,9 +56,9 @@ set(AMHMVS_CORE_SOURCES
   src/mvs/cpu_backend.cpp
   src/mvs/problem_builder.cpp
 )
-# The mapping core (keyframes, source selection, fusion, map) and further
-# metrics: every .cpp of these folders belongs to the core.
-file(GLOB AMHMVS_MAPPING_SOURCES CONFIGURE_DEPENDS src/mapping/*.cpp src/eval/*.cpp)
+# The mapping core (keyframes, source selection, fusion, map): every .cpp of
+# src/mapping belongs to the core.
+file(GLOB AMHMVS_MAPPING_SOURCES CONFIGURE_DEPENDS src/mapping/*.cpp)
 list(APPEND AMHMVS_CORE_SOURCES ${AMHMVS_MAPPING_SOURCES})
 if(AMHMVS_HAVE_CUDA)
   list(APPEND AMHMVS_CORE_SOURCES cuda/cuda_backend.cu cuda/cuda_fusion.cu)
@@ -96,3 +93,14 @@ if(OpenCV_FOUND AND NOT AMHMVS_CORE_WITHOUT_OPENCV)
   target_link_libraries(amhmvs_core PRIVATE ${OpenCV_LIBS})
 endif()
 include(${CMAKE_CURRENT_LIST_DIR}/amhmvs_pose_refinement.cmake)
+
+# Synthetic scenes with their realism mode (src/simulation) and accuracy
+# against ground truth (src/eval): for the tools and tests, not the nodelet.
+# Static, so that an install or a staged tree holds no more libraries.
+foreach(layer simulation eval)
+  file(GLOB sources CONFIGURE_DEPENDS src/${layer}/*.cpp)
+  add_library(amhmvs_${layer} STATIC ${sources})
+  target_link_libraries(amhmvs_${layer} PUBLIC amhmvs_core)
+  set_target_properties(amhmvs_${layer} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+  target_compile_options(amhmvs_${layer} PRIVATE -Wall -Wextra)
+endforeach()

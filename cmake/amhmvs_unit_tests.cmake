@@ -14,7 +14,7 @@ function(amhmvs_unit_test_sources var)
 endfunction()
 
 function(amhmvs_configure_unit_tests target)
-  target_link_libraries(${target} amhmvs_core gtest_main)
+  target_link_libraries(${target} amhmvs_simulation amhmvs_eval gtest_main)
   target_include_directories(${target} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src/tools
                              ${CMAKE_CURRENT_SOURCE_DIR}/test)
   target_compile_definitions(${target} PRIVATE

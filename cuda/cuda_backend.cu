@@ -49,7 +49,7 @@ constexpr int kBlockX = 16, kBlockY = 8;
 // Minimum resident blocks per multiprocessor asked of the compiler for the
 // initialisation and update kernels, which caps their registers (65536 / (128 * blocks)). More
 // resident warps hide texture latency; too few registers spill. Measured by
-// scripts/gpu_check.sh (step "variants").
+// scripts/gpu_machine/gpu_check.sh (step "variants").
 #ifndef AMHMVS_UPDATE_MIN_BLOCKS
 #define AMHMVS_UPDATE_MIN_BLOCKS 4
 #endif

@@ -4,7 +4,7 @@
 # gtest suite (unit tests, CLI tests, real-data accuracy floors), the ROS
 # tests and the demo in a short configuration, and prints
 # "N passed, N failed, N skipped". GPU tests run on a GPU machine instead:
-# scripts/gpu_check.sh.
+# scripts/gpu_machine/gpu_check.sh.
 #
 # Real data: $AMHMVS_DATA_DIR, else ../shared/data beside the repository.
 #

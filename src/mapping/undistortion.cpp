@@ -2,8 +2,6 @@
 
 #include <cmath>
 
-#include "amhmvs_mapping/core/image_remap.h"
-
 namespace amhmvs {
 namespace {
 
@@ -56,16 +54,6 @@ Eigen::Vector2d distortNormalized(const Distortion& d, const Eigen::Vector2d& id
   const double radial = (1 + r2 * (k(0) + r2 * (k(1) + r2 * k(4)))) / (1 + r2 * (k(5) + r2 * (k(6) + r2 * k(7))));
   const double p1 = k(2), p2 = k(3);
   return {x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x), y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y};
-}
-
-ImageU8 undistortImage(const ImageU8& image, const PinholeCamera& camera, const Distortion& distortion) {
-  const auto distorted_position = [&](int u, int v, double* su, double* sv) {
-    const Eigen::Vector2d ideal((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy);
-    const Eigen::Vector2d distorted = distortNormalized(distortion, ideal);
-    *su = camera.fx * distorted.x() + camera.cx;
-    *sv = camera.fy * distorted.y() + camera.cy;
-  };
-  return remapBilinear(image, distorted_position, RemapBorder::kZero);
 }
 
 }  // namespace amhmvs

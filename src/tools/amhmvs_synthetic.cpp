@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/error.h"
-#include "amhmvs_mapping/core/realistic_capture.h"
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/realistic_capture.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"

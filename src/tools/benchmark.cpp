@@ -32,7 +32,7 @@
 // the multiscale rows the coarse-to-fine driver (2 scales) at 640x480 (GPU)
 // and 320x240 (CPU), 4 sources.
 // DATA_DIR holds mvsnet/fountain_x0.25, fountain_x0.5, fountain_x1 dense
-// folders with decodable images (see scripts/prepare_gpu_data.py); rows whose
+// folders with decodable images (see scripts/gpu_machine/prepare_gpu_data.py); rows whose
 // folder is missing are skipped.
 #include <sys/stat.h>
 
@@ -58,7 +58,7 @@
 #endif
 
 #include "amhmvs_mapping/core/stopwatch.h"
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/mapping/depth_map_fuser.h"
 #include "amhmvs_mapping/mapping/fusion.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 
 namespace amhmvs {
 

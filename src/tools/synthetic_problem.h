@@ -5,7 +5,7 @@
 #include <cstdint>
 
 #include "amhmvs_mapping/core/image.h"
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 
 namespace amhmvs {

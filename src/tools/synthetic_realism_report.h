@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "amhmvs_mapping/core/realistic_capture.h"
+#include "amhmvs_mapping/simulation/realistic_capture.h"
 
 namespace amhmvs {
 

@@ -1,4 +1,4 @@
-// GPU tests of the estimator, run on the GPU machine by scripts/gpu_check.sh:
+// GPU tests of the estimator, run on the GPU machine by scripts/gpu_machine/gpu_check.sh:
 //  - the CPU sampler reproduces the texture unit's bilinear filtering;
 //  - each backend is deterministic (bit-identical depth maps run after run);
 //  - CPU and GPU agree on real scenes (fraction of pixels within 0.1 % depth);
@@ -19,7 +19,7 @@
 //  - a small scene for compute-sanitizer (--sanitize).
 //
 // usage: amhmvs_gpu_tests DATA_DIR [--sanitize] [--skip-cpu-fountain]
-// DATA_DIR is the output of scripts/prepare_gpu_data.py.
+// DATA_DIR is the output of scripts/gpu_machine/prepare_gpu_data.py.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -34,7 +34,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
 #include "amhmvs_mapping/io/image_io.h"
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/mapping/depth_confidence.h"
 #include "amhmvs_mapping/mapping/depth_map_fuser.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"

@@ -8,7 +8,7 @@
 // agree with the fountain's sparse points.
 //
 // Made for the GPU machine, which has no ROS and no Python ROS: everything it
-// needs is staged by scripts/stage_ros_gpu.sh. Usage:
+// needs is staged by scripts/gpu_machine/stage_ros_gpu.sh. Usage:
 //   nodelet_replay --bag B [--config replay_fountain.yaml] [--backend cuda]
 //                  [--max-image-size 256] [--iterations 3] [--rate 1]
 //                  [--timeout 300] [--sparse-points F] [--report out.txt]

@@ -33,7 +33,7 @@ void expectAsAccurateAsTheCore(const std::string& model) {
   const amhmvs::PinholeCamera c = amhmvs::test::distortionTestCamera();
   const amhmvs::ImageU8 distorted = amhmvs::test::distortedImage(c, d);
   int core_filled = 0, filled = 0;
-  const double core_error = amhmvs::test::meanError(amhmvs::undistortImage(distorted, c, d), c, &core_filled);
+  const double core_error = amhmvs::test::meanError(amhmvs::test::undistortImage(distorted, c, d), c, &core_filled);
   amhmvs::ImageU8 image = distorted;
   ImageRectifier rectifier;
   rectifier.undistort(cameraInfo(c, model, d.coefficients), &image);

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "amhmvs_mapping/core/image_remap.h"
 #include "amhmvs_mapping/mapping/undistortion.h"
 #include "test_helpers.h"
 
@@ -54,6 +55,20 @@ inline ImageU8 distortedImage(const PinholeCamera& c, const Distortion& d) {
       image.at(u, v) = static_cast<uint8_t>(std::lround(
           texture(undistortPoint(d, Eigen::Vector2d((u - c.cx) / c.fx, (v - c.cy) / c.fy)))));
   return image;
+}
+
+// The image as the ideal pinhole `camera` (same K and size) would have seen
+// it, by the model itself: each output pixel samples the input bilinearly at
+// its distorted position (0 outside). The reference the nodelet's OpenCV
+// rectification is held to; the product undistorts with image_geometry.
+inline ImageU8 undistortImage(const ImageU8& image, const PinholeCamera& camera, const Distortion& distortion) {
+  const auto distorted_position = [&](int u, int v, double* su, double* sv) {
+    const Eigen::Vector2d ideal((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy);
+    const Eigen::Vector2d distorted = distortNormalized(distortion, ideal);
+    *su = camera.fx * distorted.x() + camera.cx;
+    *sv = camera.fy * distorted.y() + camera.cy;
+  };
+  return remapBilinear(image, distorted_position, RemapBorder::kZero);
 }
 
 // Mean |image - ideal texture| over the output pixels that were filled.

@@ -12,7 +12,7 @@
 #include <map>
 #include <sstream>
 
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/eval/cloud_metrics.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
 #include "amhmvs_mapping/io/image_io.h"

@@ -11,7 +11,7 @@
 #include <random>
 
 #include "amhmvs_mapping/core/error.h"
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/eval/cloud_metrics.h"
 #include "amhmvs_mapping/mapping/fusion.h"
 #include "test_helpers.h"

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/error.h"
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/mapping/keyframe_picker.h"
 #include "mapping_test_helpers.h"
 #include "test_helpers.h"

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "amhmvs_mapping/core/realistic_capture.h"
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/realistic_capture.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mapping/online_mapper.h"
 #include "pose_error.h"

@@ -7,8 +7,8 @@
 #include <string>
 
 #include "amhmvs_mapping/core/error.h"
-#include "amhmvs_mapping/core/realism_options.h"
-#include "amhmvs_mapping/core/realistic_capture.h"
+#include "amhmvs_mapping/simulation/realism_options.h"
+#include "amhmvs_mapping/simulation/realistic_capture.h"
 
 namespace amhmvs {
 namespace {

@@ -11,8 +11,8 @@
 #include <Eigen/Geometry>
 
 #include "amhmvs_mapping/core/image.h"
-#include "amhmvs_mapping/core/realistic_capture.h"
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/realistic_capture.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 
 namespace amhmvs {
 namespace {

@@ -9,8 +9,8 @@
 
 #include <Eigen/Geometry>
 
-#include "amhmvs_mapping/core/realistic_capture.h"
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/realistic_capture.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/mapping/online_mapper.h"
 #include "amhmvs_mapping/mapping/rolling_shutter.h"
 #include "mapping_test_helpers.h"

@@ -12,7 +12,7 @@
 #include <vector>
 #include <sstream>
 
-#include "amhmvs_mapping/core/realistic_capture.h"
+#include "amhmvs_mapping/simulation/realistic_capture.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"

@@ -1,4 +1,4 @@
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 
 #include <gtest/gtest.h>
 

@@ -9,7 +9,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"
 #include "test_helpers.h"

@@ -1,5 +1,6 @@
-// Undistortion (undistortion.h): a synthetic textured plane imaged through a
-// distorted lens (distorted_plane.h) must come back as the ideal pinhole image.
+// The lens models (undistortion.h): a synthetic textured plane imaged through a
+// distorted lens (distorted_plane.h) comes back as the ideal pinhole image when
+// resampled with the model, and the models' coefficients are checked.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -23,7 +24,7 @@ void expectUndistorted(const std::string& model) {
   const ImageU8 distorted = distortedImage(c, d);
   int filled = 0;
   const double before = meanError(distorted, c, &filled);
-  const double after = meanError(undistortImage(distorted, c, d), c, &filled);
+  const double after = meanError(test::undistortImage(distorted, c, d), c, &filled);
   std::printf("%s: mean error %.2f grey levels distorted, %.2f undistorted (%d pixels)\n", model.c_str(), before,
               after, filled);
   EXPECT_GT(filled, c.width * c.height * 8 / 10);

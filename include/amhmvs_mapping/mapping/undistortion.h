@@ -1,6 +1,7 @@
-// Lens undistortion of keyframe images (ROS CameraInfo models): the image is
-// resampled to the ideal pinhole camera with the same K, so that the depth
-// estimator, which assumes a pinhole, sees straight lines straight.
+// The lens distortion models of ROS CameraInfo: D checked against its model
+// (the nodelet refuses what it cannot undistort) and the model's mapping of
+// ideal to distorted points. The nodelet resamples keyframe images with
+// image_geometry (ros/image_rectifier.h); the tests hold it to this model.
 //
 // Models (coefficients as in sensor_msgs/CameraInfo D, OpenCV's conventions;
 // x, y = X/Z, Y/Z ideal normalised coordinates, r^2 = x^2 + y^2):
@@ -40,10 +41,5 @@ std::string parseDistortion(const std::string& model, const std::vector<double>&
 
 // Distorted normalised coordinates of ideal normalised coordinates.
 Eigen::Vector2d distortNormalized(const Distortion& distortion, const Eigen::Vector2d& ideal);
-
-// The image as the ideal pinhole `camera` (same K and size) would have seen
-// it: each output pixel samples the input bilinearly at its distorted
-// position; pixels whose position falls outside the input are 0.
-ImageU8 undistortImage(const ImageU8& image, const PinholeCamera& camera, const Distortion& distortion);
 
 }  // namespace amhmvs

@@ -25,7 +25,7 @@ namespace mvs {
 // registers; the update kernel's launch bounds cap it at 128, which left few
 // texture fetches in flight. Two rows per trip need 124 and run fountain
 // x0.25 in 15.7 instead of 19.0 ms (H100; H200: one row 15.8, two 15.5,
-// three 16.3; scripts/gpu_check.sh step "variants" sets
+// three 16.3; scripts/gpu_machine/gpu_check.sh step "variants" sets
 // -DAMHMVS_WINDOW_ROW_UNROLL=N). Same arithmetic in the same order: same
 // results. The CPU build leaves the loop to the compiler.
 #ifndef AMHMVS_WINDOW_ROW_UNROLL

@@ -1,16 +1,16 @@
 #!/usr/bin/env bash
 # Stages amhmvs_map as built here by catkin (CUDA, OpenCV, Ceres: the pose
 # refinement that the core-only GPU build lacks) for the GPU machine, with
-# its libraries (scripts/library_closure.py) and issue 12's realism room, and
+# its libraries (scripts/gpu_machine/library_closure.py) and issue 12's realism room, and
 # a run script that maps the room there offline and in real time and judges
 # both maps against the true surface.
 #
-#   bash scripts/stage_map_gpu.sh [OUT_DIR]      (default: ./build-gpu-map, git-ignored)
+#   bash scripts/gpu_machine/stage_map_gpu.sh [OUT_DIR]      (default: ./build-gpu-map, git-ignored)
 #   device tool, carry OUT_DIR:  bash OUT_DIR/run.sh     (tables and logs in $OUT)
 #
 # Build first (scripts/build.sh with nvcc: the catkin build has sm_90).
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
 devel=${AMHMVS_BUILD_DIR:-$here/build}/devel
 out=$(mkdir -p "${1:-$here/build-gpu-map}" && cd "${1:-$here/build-gpu-map}" && pwd)
@@ -25,7 +25,7 @@ for p in $programs amhmvs_synthetic; do
 done
 for p in $programs; do cp "$devel/lib/amhmvs_mapping/$p" "$tree/bin/"; done
 cp "$devel/lib/libamhmvs_core.so" "$tree/lib/"
-python3 "$here/scripts/library_closure.py" "$tree" "$devel/lib" "$tree"/bin/* \
+python3 "$here/scripts/gpu_machine/library_closure.py" "$tree" "$devel/lib" "$tree"/bin/* \
   --stub libgdal.so.32 --stub libgdcmMSFF.so.3.0 --stub libgdcmDSED.so.3.0 --returning GDALAllRegister
 
 echo "== the realism room (8 views, default profile) and its true cameras as a dense folder"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the ROS-free core with nvcc and runs every GPU check in one call, on
 # the GPU machine (no ROS, no OpenCV C++ there):
-#   1. prepare the carried real data (scripts/prepare_gpu_data.py),
+#   1. prepare the carried real data (scripts/gpu_machine/prepare_gpu_data.py),
 #   2. build (CMake, AMHMVS_CORE_ONLY, sm_90 unless AMHMVS_CUDA_ARCHITECTURES),
 #   3. compiler resource report (registers, stack, spills),
 #   4. GPU tests: texture emulation, determinism, CPU/GPU agreement, accuracy,
@@ -12,11 +12,11 @@
 #      depth/normal/cost cmp-equal, and "depthwall": wall time per depth map
 #      of amhmvs_depth with all its outputs (fountain x0.25, x0.5, x1 and a
 #      640x480 synthetic room folder), median of 3 runs of the program.
-# Local use:  scripts/stage_gpu_data.sh, then through the device tool:
-#   bash scripts/gpu_check.sh   (with carry: [".gpu_data"])
+# Local use:  scripts/gpu_machine/stage_gpu_data.sh, then through the device tool:
+#   bash scripts/gpu_machine/gpu_check.sh   (with carry: [".gpu_data"])
 # Results land in $OUT (or ./gpu_results).
 set -uo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 out=${OUT:-$here/gpu_results}
 mkdir -p "$out"
 data=/tmp/amhmvs_gpu_data
@@ -26,7 +26,7 @@ status=0
 
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader | tee "$out/device.txt"
 if [ ! -d "$data" ]; then
-  python3 "$here/scripts/prepare_gpu_data.py" "$here/.gpu_data" "$data" || exit 1
+  python3 "$here/scripts/gpu_machine/prepare_gpu_data.py" "$here/.gpu_data" "$data" || exit 1
 fi
 cmake -S "$here" -B /tmp/amhmvs_build -DAMHMVS_CORE_ONLY=ON -DCMAKE_BUILD_TYPE=Release \
   -DAMHMVS_CUDA_ARCHITECTURES="$arch" -DCMAKE_CUDA_FLAGS="-Xptxas -v" > "$out/cmake.log" 2>&1 || { tail -30 "$out/cmake.log"; exit 1; }
@@ -109,7 +109,7 @@ if [[ " $steps " == *" depthwall "* ]]; then
   echo "== amhmvs_depth wall time per depth map (all outputs written; median of ${AMHMVS_WALL_RUNS:-3} runs) =="
   if [ ! -d /tmp/synthetic_640 ]; then  # rendered as PNG, read here as PPM (no PNG decoder in this build)
     "$bin/amhmvs_synthetic" /tmp/synthetic_640_png --scene room --views 11 --width 640 --height 480 > /dev/null && \
-    python3 -c "import sys; sys.path.insert(0, '$here/scripts'); import prepare_gpu_data as p; \
+    python3 -c "import sys; sys.path.insert(0, '$here/scripts/gpu_machine'); import prepare_gpu_data as p; \
 p.convert_dense_folder('/tmp/synthetic_640_png', '/tmp/synthetic_640')"
   fi
   walltime() {  # program folder extra-args... -> median ms per map

@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # GPU runs without building on the GPU machine: the programs are built here
-# (core only, sm_90, without OpenCV, as scripts/gpu_check.sh builds them
+# (core only, sm_90, without OpenCV, as scripts/gpu_machine/gpu_check.sh builds them
 # there) and carried with the prepared real data, so that a call spends its
 # device time measuring (session 7: a call of three pipeline runs took 20 s).
 #
-#   scripts/gpu_prebuilt.sh stage [BASE_COMMIT]   here: fills build-gpu-stage/ (git-ignored)
+#   scripts/gpu_machine/gpu_prebuilt.sh stage [BASE_COMMIT]   here: fills build-gpu-stage/ (git-ignored)
 #   bash build-gpu-stage/gpu_prebuilt.sh run STEP...   there (device tool, carry: build-gpu-stage)
 #
 # STEPs (V = new, this checkout, or base, BASE_COMMIT built alongside):
@@ -20,7 +20,7 @@ set -uo pipefail
 
 stage() {
   local here stage_dir base=${1:-}
-  here=$(cd "$(dirname "$0")/.." && pwd)
+  here=$(cd "$(dirname "$0")/../.." && pwd)
   stage_dir=$here/build-gpu-stage
   export PATH=/usr/bin:/bin:/usr/sbin:/sbin:/usr/local/cuda/bin:$PATH
   local programs="amhmvs_benchmark amhmvs_depth amhmvs_gpu_tests amhmvs_synthetic"
@@ -47,7 +47,7 @@ stage() {
   # x0.25 and Middlebury; the x0.5 / x1 folders would not fit the carry limit).
   local data=${AMHMVS_DATA_DIR:-$here/../shared/data} src
   src=$(mktemp -d) && ln -s "$data/mvsnet" "$src/mvsnet" && ln -s "$data/middlebury2014" "$src/middlebury2014"
-  python3 "$here/scripts/prepare_gpu_data.py" "$src" "$src/prepared" > /dev/null || exit 1
+  python3 "$here/scripts/gpu_machine/prepare_gpu_data.py" "$src" "$src/prepared" > /dev/null || exit 1
   rm -f "$src/prepared/mvsnet/fountain_x0.25/sparse.npz"
   tar -czf "$stage_dir/gpu_data.tgz" -C "$src/prepared" . && rm -rf "$src"
   cp "$0" "$stage_dir/gpu_prebuilt.sh"

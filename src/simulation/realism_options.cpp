@@ -1,4 +1,4 @@
-#include "amhmvs_mapping/core/realism_options.h"
+#include "amhmvs_mapping/simulation/realism_options.h"
 
 #include <cmath>
 #include <sstream>

@@ -2,7 +2,7 @@
 # Copies the real data that the GPU checks need into .gpu_data/ (git-ignored),
 # which the device tool carries to the GPU machine (64 MiB limit).
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 data=${AMHMVS_DATA_DIR:-$here/../shared/data}
 rm -rf "$here/.gpu_data"
 mkdir -p "$here/.gpu_data/strecha/fountain-P11"

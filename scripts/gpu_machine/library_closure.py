@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Stages the shared libraries that programs need on a machine that lacks them
 (the GPU machine: Ubuntu 24.04 without ROS or OpenCV), for
-scripts/stage_ros_gpu.sh and scripts/stage_map_gpu.sh.
+scripts/gpu_machine/stage_ros_gpu.sh and scripts/gpu_machine/stage_map_gpu.sh.
 
 usage: library_closure.py TREE DEVEL_LIB ROOT... [--stub SONAME]... [--returning SYMBOL]...
 

@@ -20,8 +20,8 @@
 
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
-#include "amhmvs_mapping/core/realism_options.h"
-#include "amhmvs_mapping/core/synthetic_scene.h"
+#include "amhmvs_mapping/simulation/realism_options.h"
+#include "amhmvs_mapping/simulation/synthetic_scene.h"
 
 namespace amhmvs {
 

@@ -1,4 +1,4 @@
-#include "amhmvs_mapping/core/realistic_capture.h"
+#include "amhmvs_mapping/simulation/realistic_capture.h"
 
 #include <algorithm>
 #include <cmath>

@@ -8,7 +8,7 @@
 # libraries and package.xml / plugin xml files pluginlib looks for, the
 # fountain bag and a run script.
 #
-#   bash scripts/stage_ros_gpu.sh [OUT_DIR]     (default: ./.rosgpu)
+#   bash scripts/gpu_machine/stage_ros_gpu.sh [OUT_DIR]     (default: ./.rosgpu)
 #
 # OUT_DIR gets rosgpu.tar.xz (about 35 MB). On the target:
 #   tar xJf rosgpu.tar.xz -C /tmp && /tmp/rosgpu/run.sh --backend cuda --report r.txt
@@ -21,7 +21,7 @@
 # (GDAL alone pulls in ~120 MB): they are replaced by stubs that define the
 # symbols libopencv_imgcodecs imports from them (ud2 if ever called).
 set -euo pipefail
-here=$(cd "$(dirname "$0")/.." && pwd)
+here=$(cd "$(dirname "$0")/../.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
 build=${AMHMVS_BUILD_DIR:-$here/build}
 data=${AMHMVS_DATA_DIR:-$here/../shared/data}
@@ -48,7 +48,7 @@ strip "$tree/bin/nodelet_replay"
 echo "== libraries"
 cp "$build/devel/lib/libamhmvs_mapping_nodelet.so" "$build/devel/lib/libamhmvs_core.so" "$tree/lib/"
 cp "$multiarch/ros/libimage_transport_plugins.so" "$multiarch/ros/librosbag_default_encryption_plugins.so" "$tree/lib/"
-python3 "$here/scripts/library_closure.py" "$tree" "$build/devel/lib" "$tree/bin/nodelet_replay" \
+python3 "$here/scripts/gpu_machine/library_closure.py" "$tree" "$build/devel/lib" "$tree/bin/nodelet_replay" \
   --stub libgdal.so.32 --stub libgdcmMSFF.so.3.0 --stub libgdcmDSED.so.3.0 --stub libOpenEXR-3_1.so.30
 
 echo "== ROS package files (ROS_PACKAGE_PATH=share)"
