@@ -173,7 +173,8 @@ void preferOneCudaWorkQueue() {
 
 int runDepthJob(const std::string& input_dir, const std::string& output_dir,
                 const DepthJobOptions& options,
-                const std::function<void(int, const DepthProblem&, const DepthMap&)>& on_result) {
+                const std::function<void(int, const DepthProblem&, const DepthMap&)>& on_result,
+                const std::function<void(int, const DepthMap&)>& on_photometric) {
   using Clock = std::chrono::steady_clock;
   const auto job_start = Clock::now();
   // The GPU context starts (a few hundred ms) while the scene and the first
@@ -228,6 +229,7 @@ int runDepthJob(const std::string& input_dir, const std::string& output_dir,
       start = Clock::now();
       photometric[ids[i]] = estimator.estimate(problem);
       estimate_ms += millisecondsSince(start);
+      if (on_photometric) on_photometric(ids[i], photometric[ids[i]]);
     }
     PatchMatchOptions second = options.patchmatch;
     second.num_iterations = options.geometric_iterations;

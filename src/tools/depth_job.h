@@ -57,12 +57,15 @@ void maskByCost(DepthMap* map, float max_cost);
 // starts and ends faster. Call before the first CUDA call.
 void preferOneCudaWorkQueue();
 
-// Runs the job; `on_result` (if set) sees every depth map. Output files are
-// written by a background thread (off the estimator's path); its first error
-// is thrown before this returns. Returns the number of depth maps written.
+// Runs the job; `on_result` (if set) sees every depth map, and with
+// geometric_iterations > 0 `on_photometric` (if set) sees each view's
+// first-pass map before the geometric pass. Output files are written by a
+// background thread (off the estimator's path); its first error is thrown
+// before this returns. Returns the number of depth maps written.
 int runDepthJob(const std::string& input_dir, const std::string& output_dir,
                 const DepthJobOptions& options,
-                const std::function<void(int, const DepthProblem&, const DepthMap&)>& on_result = {});
+                const std::function<void(int, const DepthProblem&, const DepthMap&)>& on_result = {},
+                const std::function<void(int, const DepthMap&)>& on_photometric = {});
 
 // Parses the command line of amhmvs_depth (after INPUT_DIR OUTPUT_DIR);
 // throws InputError on unknown options or bad values.
