@@ -26,7 +26,7 @@ packages=(
   ros-std-srvs libstd-srvs-dev python3-std-srvs
   libmessage-filters-dev python3-message-filters
   python3-sensor-msgs python3-geometry-msgs python3-nav-msgs
-  libeigen3-dev libopencv-dev libceres-dev libgtest-dev googletest python3-numpy python3-opencv
+  libeigen3-dev libopencv-dev libopencv-contrib-dev libceres-dev libgtest-dev googletest python3-numpy python3-opencv
   colmap
   rviz xvfb imagemagick libgl1-mesa-dri python3-tf2-msgs python3-diagnostic-msgs python3-rosnode python3-yaml
   clang libclang-rt-14-dev libomp-14-dev llvm-14

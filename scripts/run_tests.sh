@@ -29,9 +29,10 @@ data=${AMHMVS_DATA_DIR:-$here/../shared/data}
 export AMHMVS_DATA_DIR=$data
 
 # The unit tests left out of the fast tier and of the sanitizer run: the
-# real-data floors, the CLI runs on whole sequences, the repeated estimator
+# real-data floors, the CLI runs on whole sequences (the odometry on
+# redkitchen among them), the repeated estimator
 # runs and the geometric pass on the four Middlebury scenes.
-slow='RealData.*:FuseCliRealData.*:DepthCliColmap.*:MapCli.*:EstimatorOnSyntheticScene.*:GeometricConsistency.GeometricPassImproves*'
+slow='RealData.*:FuseCliRealData.*:DepthCliColmap.*:MapCli.*:OdometryCli.Redkitchen*:EstimatorOnSyntheticScene.*:GeometricConsistency.GeometricPassImproves*'
 
 if [ "$fast" = true ]; then
   AMHMVS_MAKE_TARGETS="amhmvs_unit_tests" "$here/scripts/build.sh"

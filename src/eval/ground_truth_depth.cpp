@@ -7,6 +7,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/pfm.h"
+#include "amhmvs_mapping/mapping/keyframe_store.h"
 
 namespace amhmvs {
 
@@ -43,6 +44,11 @@ DepthMapView trueSurfaceView(const DepthMapView& truth, const PosedFrame& frame)
   if (frame.true_camera && frame.ground_truth.registered) {
     view.camera.R = frame.true_camera->R;
     view.camera.t = frame.true_camera->t;
+  } else if (frame.true_camera) {
+    // A depth camera of its own, where it sits on the colour camera (the
+    // tracker's poses of both are rigid), at the true colour pose.
+    const Eigen::Isometry3d color_on_depth = cameraToWorld(view.camera).inverse() * cameraToWorld(frame.camera);
+    setCameraToWorld(cameraToWorld(*frame.true_camera) * color_on_depth.inverse(), &view.camera);
   }
   return view;
 }

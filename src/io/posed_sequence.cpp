@@ -2,6 +2,7 @@
 // posed sequences (the RGB-D layouts have files of their own).
 #include "amhmvs_mapping/io/posed_sequence.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -11,6 +12,7 @@
 #include "amhmvs_mapping/io/colmap_model.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/mvsnet_folder.h"
+#include "amhmvs_mapping/io/tum_trajectory.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "file_util.h"
 
@@ -130,14 +132,57 @@ std::string detectSequenceLayout(const std::string& dir) {
                    "folder (rgb.txt, groundtruth.txt)");
 }
 
+namespace {
+
+// The frames' poses from a tracker's trajectory (PosedSequenceOptions::trajectory_path).
+void useTrackerTrajectory(const std::string& path, double max_time_difference_s, PosedSequence* sequence) {
+  std::vector<StampedPose> poses = readTumTrajectory(path);
+  if (poses.empty()) throw InputError(path + ": the trajectory has no poses");
+  std::sort(poses.begin(), poses.end(), [](const StampedPose& a, const StampedPose& b) { return a.first < b.first; });
+  for (PosedFrame& frame : sequence->frames) {
+    if (frame.true_camera) {
+      throw InputError(path + ": " + sequence->dir + " has true poses besides its own (cams_gt/); a trajectory " +
+                       "replaces the poses of a sequence that has none");
+    }
+    auto next = std::lower_bound(poses.begin(), poses.end(), frame.stamp,
+                                 [](const StampedPose& pose, double stamp) { return pose.first < stamp; });
+    if (next == poses.end() || (next != poses.begin() && frame.stamp - std::prev(next)->first < next->first - frame.stamp)) {
+      --next;
+    }
+    if (std::abs(next->first - frame.stamp) > max_time_difference_s) {
+      std::ostringstream why;
+      why << path << ": no pose within " << max_time_difference_s << " s of " << frame.name << " (stamp "
+          << frame.stamp << ")";
+      throw InputError(why.str());
+    }
+    frame.true_camera = frame.camera;
+    if (frame.ground_truth.present() && !frame.ground_truth.registered) {
+      // The tracker's pose is the depth camera's; the colour camera keeps its
+      // place on it (the nearest rotation: recorded poses are orthonormal to
+      // about 1e-4 only, and their errors would add up here).
+      PinholeCamera& depth_camera = frame.ground_truth.depth_camera;
+      Eigen::Isometry3d color_on_depth = cameraToWorld(depth_camera).inverse() * cameraToWorld(frame.camera);
+      color_on_depth.linear() = Eigen::Quaterniond(color_on_depth.linear()).normalized().toRotationMatrix();
+      setCameraToWorld(next->second, &depth_camera);
+      setCameraToWorld(next->second * color_on_depth, &frame.camera);
+    } else {
+      setCameraToWorld(next->second, &frame.camera);
+    }
+  }
+}
+
+}  // namespace
+
 PosedSequence readPosedSequence(const std::string& dir, const PosedSequenceOptions& options) {
   const std::string problems = options.validate();
   if (!problems.empty()) throw InputError("invalid sequence options:\n" + problems);
   const std::string layout = detectSequenceLayout(dir);
-  if (layout == "colmap") return readColmapSequence(dir, options);
-  if (layout == "mvsnet") return readMvsnetSequence(dir, options);
-  if (layout == "tum") return readTumSequence(dir, options);
-  return readSevenScenesSequence(dir, options);
+  PosedSequence sequence = layout == "colmap"   ? readColmapSequence(dir, options)
+                           : layout == "mvsnet" ? readMvsnetSequence(dir, options)
+                           : layout == "tum"    ? readTumSequence(dir, options)
+                                                : readSevenScenesSequence(dir, options);
+  if (!options.trajectory_path.empty()) useTrackerTrajectory(options.trajectory_path, options.tum_max_time_difference_s, &sequence);
+  return sequence;
 }
 
 PosedSequence readMvsnetSequence(const std::string& dir, const PosedSequenceOptions& options) {

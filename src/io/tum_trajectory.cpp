@@ -28,7 +28,9 @@ std::vector<StampedPose> readTumTrajectory(const std::string& path) {
 }
 
 void writeTumTrajectory(const std::string& path, const std::vector<StampedPose>& poses, const std::string& header) {
-  std::FILE* file = std::fopen(path.c_str(), "w");
+  // Written beside the path and renamed onto it: a reader never sees half a file.
+  const std::string partial = path + ".part";
+  std::FILE* file = std::fopen(partial.c_str(), "w");
   if (!file) throw InputError(path + ": cannot write the trajectory");
   std::istringstream lines(header);
   for (std::string line; std::getline(lines, line);) std::fprintf(file, "# %s\n", line.c_str());
@@ -40,7 +42,10 @@ void writeTumTrajectory(const std::string& path, const std::vector<StampedPose>&
                  q.y(), q.z(), q.w());
   }
   const bool failed = std::ferror(file) != 0;
-  if (std::fclose(file) != 0 || failed) throw InputError(path + ": writing the trajectory failed");
+  if (std::fclose(file) != 0 || failed || std::rename(partial.c_str(), path.c_str()) != 0) {
+    std::remove(partial.c_str());
+    throw InputError(path + ": writing the trajectory failed");
+  }
 }
 
 }  // namespace amhmvs

@@ -12,16 +12,6 @@ namespace amhmvs {
 
 namespace {
 
-// "x,y,z" in metres.
-Eigen::Vector3d parseVector(const std::string& option, const std::string& text) {
-  std::istringstream in(text);
-  std::string item;
-  std::vector<double> values;
-  while (std::getline(in, item, ',')) values.push_back(parseValue<double>(option, item));
-  if (values.size() != 3) throw InputError("option --" + option + ": expected x,y,z, got '" + text + "'");
-  return {values[0], values[1], values[2]};
-}
-
 // The switches of the command line: the tool's own and every true/false
 // parameter, by its name and its older flag.
 std::set<std::string> commandLineSwitches() {
@@ -85,11 +75,12 @@ MapToolOptions parseMapToolArguments(const std::vector<std::string>& arguments) 
     else if (name == "depth_min") options.depth_min = parseValue<double>(name, value);
     else if (name == "depth_max") options.depth_max = parseValue<double>(name, value);
     else if (name == "intrinsics") sequence.color_intrinsics = parseIntrinsics(value);
-    else if (name == "color_offset") sequence.color_offset = parseVector(name, value);
+    else if (name == "color_offset") sequence.color_offset = parseVector3(name, value);
     else if (name == "frame_rate") sequence.seven_scenes_frame_rate_hz = parseValue<double>(name, value);
     else if (name == "max_time_difference") sequence.tum_max_time_difference_s = parseValue<double>(name, value);
     else if (name == "depth_factor") sequence.tum_depth_units_per_metre = parseValue<double>(name, value);
     else if (name == "frame_period") sequence.frame_period_s = parseValue<double>(name, value);
+    else if (name == "trajectory") sequence.trajectory_path = value;
     else
       throw InputError("unknown option --" + name + " (did you mean --" + closestParameterName(name) +
                        "? see --help)");
@@ -165,6 +156,9 @@ std::string mapToolUsage() {
          "  --max_time_difference S  TUM: association tolerance (default 0.02 s)\n"
          "  --depth_factor F     TUM: depth units per metre (default 5000)\n"
          "  --frame_period S     MVSNet, COLMAP: seconds between frames (default 1)\n"
+         "  --trajectory FILE    a tracker's poses (TUM format, e.g. amhmvs_odometry's) instead of\n"
+         "                       the sequence's, matched by stamp; the sequence's are the truth\n"
+         "                       of the reports\n"
          "  --depth_min M --depth_max M  depth range of every keyframe (default: from the\n"
          "                       layout (MVSNet, COLMAP), else the neighbours' depth maps)\n"
          "Outputs:\n"

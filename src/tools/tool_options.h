@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/core/option_field.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
@@ -21,6 +23,16 @@ T parseValue(const std::string& option, const std::string& text) {
     throw InputError("option --" + option + ": '" + text + "' is not a valid value");
   }
   return value;
+}
+
+// "x,y,z": three numbers (e.g. a position in metres).
+inline Eigen::Vector3d parseVector3(const std::string& option, const std::string& text) {
+  std::istringstream in(text);
+  std::string item;
+  std::vector<double> values;
+  while (std::getline(in, item, ',')) values.push_back(parseValue<double>(option, item));
+  if (values.size() != 3) throw InputError("option --" + option + ": expected x,y,z, got '" + text + "'");
+  return {values[0], values[1], values[2]};
 }
 
 // Reads the option at arguments[*i] (advancing *i past its value): its name

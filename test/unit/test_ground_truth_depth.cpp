@@ -140,8 +140,14 @@ TEST(GroundTruthDepth, TrueSurfaceIsPlacedAtTheTruePoseWhereThereIsOne) {
   const std::vector<Eigen::Vector3f> points = backprojectDepthMaps({placed}, 1);
   ASSERT_FALSE(points.empty());
   EXPECT_NEAR((points[0].cast<double>() - true_camera.center()).norm(), 2.0 * std::sqrt(1 + (3.5 * 3.5 + 2.5 * 2.5) / 100.0), 1e-5);
-  frame.ground_truth.registered = false;  // a depth camera of its own keeps its recorded pose
-  EXPECT_EQ(trueSurfaceView(truth, frame).camera.t, truth.camera.t);
+  // A depth camera of its own (1 cm beside the colour camera, both at the
+  // tracker's pose) goes where it sits on the true colour camera.
+  frame.ground_truth.registered = false;
+  setCameraToWorld(test::poseAt({0.5, 0, 0}, 10), &frame.camera);
+  DepthMapView beside = truth;
+  setCameraToWorld(cameraToWorld(frame.camera) * Eigen::Translation3d(0.01, 0, 0), &beside.camera);
+  const Eigen::Isometry3d expected = cameraToWorld(true_camera) * Eigen::Translation3d(0.01, 0, 0);
+  EXPECT_TRUE(cameraToWorld(trueSurfaceView(beside, frame).camera).isApprox(expected, 1e-12));
 }
 
 }  // namespace

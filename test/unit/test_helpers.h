@@ -7,9 +7,12 @@
 #include <sys/wait.h>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include "amhmvs_mapping/core/camera.h"
@@ -86,6 +89,27 @@ inline CommandResult runTool(const std::string& tool, const std::string& argumen
   return runCommand(std::string(AMHMVS_TOOLS_DIR) + "/" + tool + " " + arguments);
 }
 #endif
+
+// The whole of a text file ("" when it cannot be read).
+inline std::string readText(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The number after "key": that follows "section": in a JSON text (section
+// "" = from the start); NaN when absent or null.
+inline double jsonNumber(const std::string& json, const std::string& section, const std::string& key) {
+  size_t pos = section.empty() ? 0 : json.find("\"" + section + "\":");
+  if (pos == std::string::npos) return NAN;
+  pos = json.find("\"" + key + "\":", pos);
+  if (pos == std::string::npos) return NAN;
+  const char* start = json.c_str() + pos + key.size() + 3;
+  char* end = nullptr;
+  const double value = std::strtod(start, &end);
+  return end == start ? NAN : value;
+}
 
 // An image of uniformly random bytes, reproducible from `seed`.
 inline ImageU8 randomImage(int width, int height, int channels, unsigned seed) {

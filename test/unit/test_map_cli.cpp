@@ -31,25 +31,8 @@ namespace fs = std::filesystem;
 using test::CommandResult;
 using test::runTool;
 
-std::string readText(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-// The number after "key": that follows "section": in a one-line JSON text
-// (section "" = from the start); NaN when absent or null.
-double jsonNumber(const std::string& json, const std::string& section, const std::string& key) {
-  size_t pos = section.empty() ? 0 : json.find("\"" + section + "\":");
-  if (pos == std::string::npos) return NAN;
-  pos = json.find("\"" + key + "\":", pos);
-  if (pos == std::string::npos) return NAN;
-  const char* start = json.c_str() + pos + key.size() + 3;
-  char* end = nullptr;
-  const double value = std::strtod(start, &end);
-  return end == start ? NAN : value;
-}
+using test::jsonNumber;
+using test::readText;
 
 // Each (section, key) of the summary is above its floor.
 struct Floor {

@@ -8,10 +8,12 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/eval/ground_truth_depth.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"
 #include "amhmvs_mapping/io/posed_sequence.h"
+#include "amhmvs_mapping/io/tum_trajectory.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "test_helpers.h"
 
@@ -117,6 +119,48 @@ TEST(PosedSequence, SevenScenesColourRegistrationOptions) {
   const Eigen::Vector3d moved = depth.R * (frame.camera.center() - depth.center());  // depth camera frame
   EXPECT_NEAR(moved.x(), -0.010, 1e-12);
   EXPECT_NEAR(moved.norm(), 0.010, 1e-12);
+}
+
+// A tracker's trajectory replaces the recorded poses: its poses are the
+// depth camera's, the colour camera keeps its offset on it, the recorded
+// poses become the truth; a frame without a pose near its stamp is named.
+TEST(PosedSequence, TrackerTrajectoryReplacesThePosesAndKeepsThemAsTheTruth) {
+  test::TempDir dir;
+  const std::string root = writeSevenScenes(dir);
+  PosedSequenceOptions options;
+  options.color_offset = Eigen::Vector3d(-0.010, 0, 0);
+  const PosedSequence recorded = readPosedSequence(root, options);
+  std::vector<StampedPose> tracked;
+  for (const PosedFrame& frame : recorded.frames) {
+    const Eigen::Isometry3d error = testPose(0.01 * frame.id + 0.02, {0.003 * frame.id, -0.01, 0.02});
+    tracked.push_back({frame.stamp + 0.001, cameraToWorld(frame.ground_truth.depth_camera) * error});
+  }
+  writeTumTrajectory(dir.file("tracked.txt"), {tracked.rbegin(), tracked.rend()}, "");  // any order
+  options.trajectory_path = dir.file("tracked.txt");
+  const PosedSequence sequence = readPosedSequence(root, options);
+  ASSERT_EQ(sequence.frames.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    const PosedFrame& frame = sequence.frames[i];
+    const PosedFrame& truth = recorded.frames[i];
+    EXPECT_TRUE(cameraToWorld(frame.ground_truth.depth_camera).isApprox(tracked[i].second, 1e-12)) << i;
+    const Eigen::Isometry3d offset = cameraToWorld(frame.ground_truth.depth_camera).inverse() * cameraToWorld(frame.camera);
+    const Eigen::Isometry3d true_offset =
+        cameraToWorld(truth.ground_truth.depth_camera).inverse() * cameraToWorld(truth.camera);
+    EXPECT_TRUE(offset.isApprox(true_offset, 1e-12)) << i;
+    ASSERT_TRUE(frame.true_camera.has_value()) << i;
+    EXPECT_TRUE(cameraToWorld(*frame.true_camera).isApprox(cameraToWorld(truth.camera), 1e-12)) << i;
+  }
+  // The truth's depth camera, back where it was recorded.
+  const DepthMapView placed = trueSurfaceView({sequence.frames[2].ground_truth.depth_camera, ImageF()}, sequence.frames[2]);
+  EXPECT_TRUE(cameraToWorld(placed.camera).isApprox(cameraToWorld(recorded.frames[2].ground_truth.depth_camera), 1e-12));
+
+  writeTumTrajectory(dir.file("short.txt"), {tracked[0], tracked[1]}, "");
+  options.trajectory_path = dir.file("short.txt");
+  EXPECT_INPUT_ERROR(readPosedSequence(root, options), "short.txt: no pose within 0.02 s of frame-000010.color.png",
+                     "stamp 0.333");
+  writeTumTrajectory(dir.file("empty.txt"), {}, "nothing");
+  options.trajectory_path = dir.file("empty.txt");
+  EXPECT_INPUT_ERROR(readPosedSequence(root, options), "empty.txt", "has no poses");
 }
 
 TEST(PosedSequence, SevenScenesErrorsNameFileAndLine) {

@@ -19,9 +19,10 @@ DepthMapView readGroundTruthDepth(const GroundTruthDepthSource& source, const Pi
 
 // The true surface of a frame in the world: its ground-truth depth (as read
 // by readGroundTruthDepth) placed at the frame's true pose where the
-// recording has one apart from the tracker's (PosedFrame::true_camera,
-// amhmvs_synthetic --realism: registered depth), else at the recorded pose
-// (7-Scenes: the KinectFusion poses are the ground truth). A map placed with
+// recording has one apart from the tracker's (PosedFrame::true_camera:
+// amhmvs_synthetic --realism, registered depth; a tracker's trajectory read
+// over a sequence, the depth camera moved with the colour camera), else at
+// the recorded pose (7-Scenes: the KinectFusion poses are the ground truth). A map placed with
 // a tracker's poses is judged against this surface, not against the truth
 // moved by the tracker's error.
 DepthMapView trueSurfaceView(const DepthMapView& truth, const PosedFrame& frame);

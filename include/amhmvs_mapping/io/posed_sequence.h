@@ -98,6 +98,14 @@ struct PosedSequenceOptions {
   double tum_depth_units_per_metre = 5000;
   double frame_period_s = 1;  // stamps of layouts without any
   int colmap_min_points = 10;
+  // A tracker's trajectory (TUM format, e.g. amhmvs_odometry's) used instead
+  // of the sequence's own poses. Its poses are of the camera the sequence's
+  // poses are of (7-Scenes: the depth camera; the others: the colour
+  // camera), matched to the frames by stamp (the nearest, within
+  // tum_max_time_difference_s; a frame without one is an error); the colour
+  // camera keeps its place on the depth camera. The sequence's own poses
+  // become the frames' true_camera, for reports. Empty: the sequence's poses.
+  std::string trajectory_path;
 
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;
