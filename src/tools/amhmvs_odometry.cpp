@@ -250,11 +250,16 @@ int run(const std::vector<std::string>& args) {
       trajectoryError(written, reference, depth_camera, [&](size_t i) { return depthOf(i).depth; });
   std::printf("amhmvs_odometry: %zu frames, %zu tracker keyframes, %zu failed to align (%s)\n", frames.size(),
               keyframes, failures, options.method.c_str());
-  std::printf("  ATE %.1f mm RMSE (median %.1f, max %.1f); over %zu keyframe pairs: RPE %.1f mm / %.2f deg RMSE,\n"
-              "  misalignment %.2f px median, %.2f px 90th percentile, %.2f px max\n",
-              error.ate_rmse_m * 1e3, error.ate_median_m * 1e3, error.ate_max_m * 1e3, error.keyframe_pairs,
-              error.rpe_translation_rmse_m * 1e3, error.rpe_rotation_rmse_deg, error.misalignment_median_px,
-              error.misalignment_p90_px, error.misalignment_max_px);
+  std::printf("  ATE %.1f mm RMSE (median %.1f, max %.1f)", error.ate_rmse_m * 1e3, error.ate_median_m * 1e3,
+              error.ate_max_m * 1e3);
+  if (error.keyframe_pairs == 0) {
+    std::printf("; no keyframe pairs (the reference moves less than a keyframe's motion)\n");
+  } else {
+    std::printf("; over %zu keyframe pairs: RPE %.1f mm / %.2f deg RMSE,\n", error.keyframe_pairs,
+                error.rpe_translation_rmse_m * 1e3, error.rpe_rotation_rmse_deg);
+    std::printf("  misalignment %.2f px median, %.2f px 90th percentile, %.2f px max\n", error.misalignment_median_px,
+                error.misalignment_p90_px, error.misalignment_max_px);
+  }
   if (!options.report_path.empty()) {
     std::string json = trajectoryErrorJson(error);
     json.erase(json.rfind("\n}"));  // the tracker's own counts join the object
