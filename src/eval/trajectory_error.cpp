@@ -14,10 +14,6 @@ namespace amhmvs {
 
 namespace {
 
-double rotationDegrees(const Eigen::Matrix3d& rotation) {
-  return Eigen::AngleAxisd(rotation).angle() * 180.0 / M_PI;
-}
-
 double rootMeanSquare(const std::vector<double>& values) {
   double sum = 0;
   for (double v : values) sum += v * v;
@@ -105,7 +101,7 @@ TrajectoryError trajectoryError(const std::vector<Eigen::Isometry3d>& estimated,
     const Eigen::Isometry3d estimated_relative = estimated[a].inverse() * estimated[b];
     const Eigen::Isometry3d difference = true_relative.inverse() * estimated_relative;
     translations.push_back(difference.translation().norm());
-    rotations.push_back(rotationDegrees(difference.rotation()));
+    rotations.push_back(rotationAngleDeg(difference.rotation()));
     const ImageF first = depth ? depth(a) : ImageF();
     if (first.data.empty()) continue;
     const double pixels = pairMisalignment(first, camera, true_relative, estimated_relative, options.pixel_stride);

@@ -2,7 +2,6 @@
 // posed sequences (the RGB-D layouts have files of their own).
 #include "amhmvs_mapping/io/posed_sequence.h"
 
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -15,6 +14,7 @@
 #include "amhmvs_mapping/io/tum_trajectory.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "file_util.h"
+#include "stamp_association.h"
 
 namespace amhmvs {
 
@@ -136,25 +136,22 @@ namespace {
 
 // The frames' poses from a tracker's trajectory (PosedSequenceOptions::trajectory_path).
 void useTrackerTrajectory(const std::string& path, double max_time_difference_s, PosedSequence* sequence) {
-  std::vector<StampedPose> poses = readTumTrajectory(path);
+  const std::vector<StampedPose> poses = readTumTrajectory(path);
   if (poses.empty()) throw InputError(path + ": the trajectory has no poses");
-  std::sort(poses.begin(), poses.end(), [](const StampedPose& a, const StampedPose& b) { return a.first < b.first; });
+  const std::vector<internal::Stamped> stamps = internal::sortedStamps(poses);
   for (PosedFrame& frame : sequence->frames) {
     if (frame.true_camera) {
       throw InputError(path + ": " + sequence->dir + " has true poses besides its own (cams_gt/); a trajectory " +
                        "replaces the poses of a sequence that has none");
     }
-    auto next = std::lower_bound(poses.begin(), poses.end(), frame.stamp,
-                                 [](const StampedPose& pose, double stamp) { return pose.first < stamp; });
-    if (next == poses.end() || (next != poses.begin() && frame.stamp - std::prev(next)->first < next->first - frame.stamp)) {
-      --next;
-    }
-    if (std::abs(next->first - frame.stamp) > max_time_difference_s) {
+    const long nearest = internal::nearest(stamps, frame.stamp, max_time_difference_s);
+    if (nearest < 0) {
       std::ostringstream why;
       why << path << ": no pose within " << max_time_difference_s << " s of " << frame.name << " (stamp "
           << frame.stamp << ")";
       throw InputError(why.str());
     }
+    const Eigen::Isometry3d& tracked = poses[nearest].second;
     frame.true_camera = frame.camera;
     if (frame.ground_truth.present() && !frame.ground_truth.registered) {
       // The tracker's pose is the depth camera's; the colour camera keeps its
@@ -163,10 +160,10 @@ void useTrackerTrajectory(const std::string& path, double max_time_difference_s,
       PinholeCamera& depth_camera = frame.ground_truth.depth_camera;
       Eigen::Isometry3d color_on_depth = cameraToWorld(depth_camera).inverse() * cameraToWorld(frame.camera);
       color_on_depth.linear() = Eigen::Quaterniond(color_on_depth.linear()).normalized().toRotationMatrix();
-      setCameraToWorld(next->second, &depth_camera);
-      setCameraToWorld(next->second * color_on_depth, &frame.camera);
+      setCameraToWorld(tracked, &depth_camera);
+      setCameraToWorld(tracked * color_on_depth, &frame.camera);
     } else {
-      setCameraToWorld(next->second, &frame.camera);
+      setCameraToWorld(tracked, &frame.camera);
     }
   }
 }

@@ -9,6 +9,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/io/posed_sequence.h"
 #include "amhmvs_mapping/io/tum_trajectory.h"
+#include "stamp_association.h"
 #include "text_lines.h"
 
 namespace amhmvs {
@@ -17,10 +18,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Stamped {
-  double stamp;
-  size_t index;  // into the file's own list
-};
 
 // (stamp, path) lines of rgb.txt / depth.txt.
 std::vector<std::pair<double, std::string>> readStampedPaths(const std::string& path) {
@@ -30,29 +27,6 @@ std::vector<std::pair<double, std::string>> readStampedPaths(const std::string& 
     entries.push_back({internal::numberAt(path, line, 0), line.tokens[1]});
   }
   return entries;
-}
-
-// Stamps sorted, for nearest-neighbour association.
-template <typename T>
-std::vector<Stamped> sortedStamps(const std::vector<std::pair<double, T>>& entries) {
-  std::vector<Stamped> stamps;
-  for (size_t i = 0; i < entries.size(); ++i) stamps.push_back({entries[i].first, i});
-  std::sort(stamps.begin(), stamps.end(), [](const Stamped& a, const Stamped& b) { return a.stamp < b.stamp; });
-  return stamps;
-}
-
-// Index of the entry nearest to `stamp` within `tolerance`, or -1.
-long nearest(const std::vector<Stamped>& stamps, double stamp, double tolerance) {
-  const auto after = std::lower_bound(stamps.begin(), stamps.end(), stamp,
-                                      [](const Stamped& s, double t) { return s.stamp < t; });
-  long best = -1;
-  double best_gap = tolerance;
-  for (auto it : {after, after - (after == stamps.begin() ? 0 : 1)}) {
-    if (it == stamps.end()) continue;
-    const double gap = std::abs(it->stamp - stamp);
-    if (gap <= best_gap) best_gap = gap, best = static_cast<long>(it->index);
-  }
-  return best;
 }
 
 Intrinsics defaultTumIntrinsics(const std::string& dir) {
@@ -70,7 +44,8 @@ PosedSequence readTumSequence(const std::string& dir, const PosedSequenceOptions
   const auto poses = readTumTrajectory(dir + "/groundtruth.txt");
   std::vector<std::pair<double, std::string>> depths;
   if (fs::exists(dir + "/depth.txt")) depths = readStampedPaths(dir + "/depth.txt");
-  const std::vector<Stamped> pose_stamps = sortedStamps(poses), depth_stamps = sortedStamps(depths);
+  const std::vector<internal::Stamped> pose_stamps = internal::sortedStamps(poses),
+                                      depth_stamps = internal::sortedStamps(depths);
   const Intrinsics k = options.color_intrinsics.set() ? options.color_intrinsics : defaultTumIntrinsics(dir);
 
   PosedSequence sequence;
@@ -79,7 +54,7 @@ PosedSequence readTumSequence(const std::string& dir, const PosedSequenceOptions
   double last_stamp = -INFINITY;
   for (size_t i = 0; i < colors.size(); ++i) {
     const double stamp = colors[i].first;
-    const long pose = nearest(pose_stamps, stamp, options.tum_max_time_difference_s);
+    const long pose = internal::nearest(pose_stamps, stamp, options.tum_max_time_difference_s);
     if (pose < 0) continue;
     if (stamp < last_stamp) {
       throw InputError(dir + "/rgb.txt: stamps must not decrease (" + std::to_string(stamp) + " after " +
@@ -92,7 +67,7 @@ PosedSequence readTumSequence(const std::string& dir, const PosedSequenceOptions
     frame.stamp = stamp;
     frame.image_path = dir + "/" + colors[i].second;
     frame.camera = cameraOfImage(k, frame.image_path, poses[pose].second, dir + "/groundtruth.txt");
-    const long depth = nearest(depth_stamps, stamp, options.tum_max_time_difference_s);
+    const long depth = internal::nearest(depth_stamps, stamp, options.tum_max_time_difference_s);
     if (depth >= 0) {
       frame.ground_truth.path = dir + "/" + depths[depth].second;
       frame.ground_truth.metres_per_unit = 1.0 / options.tum_depth_units_per_metre;

@@ -27,25 +27,31 @@ std::vector<StampedPose> readTumTrajectory(const std::string& path) {
   return poses;
 }
 
-void writeTumTrajectory(const std::string& path, const std::vector<StampedPose>& poses, const std::string& header) {
-  // Written beside the path and renamed onto it: a reader never sees half a file.
+void writeTextFileAtomically(const std::string& path, const std::string& text, const std::string& what) {
   const std::string partial = path + ".part";
   std::FILE* file = std::fopen(partial.c_str(), "w");
-  if (!file) throw InputError(path + ": cannot write the trajectory");
+  if (!file) throw InputError(path + ": cannot write the " + what);
+  const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
+  if (std::fclose(file) != 0 || !written || std::rename(partial.c_str(), path.c_str()) != 0) {
+    std::remove(partial.c_str());
+    throw InputError(path + ": writing the " + what + " failed");
+  }
+}
+
+void writeTumTrajectory(const std::string& path, const std::vector<StampedPose>& poses, const std::string& header) {
+  std::string text;
   std::istringstream lines(header);
-  for (std::string line; std::getline(lines, line);) std::fprintf(file, "# %s\n", line.c_str());
+  for (std::string line; std::getline(lines, line);) text += "# " + line + "\n";
+  char row[256];
   for (const StampedPose& stamped : poses) {
     const Eigen::Vector3d& t = stamped.second.translation();
     const Eigen::Quaterniond q(stamped.second.linear());
     // 17 significant digits: the doubles come back as they were written.
-    std::fprintf(file, "%.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", stamped.first, t.x(), t.y(), t.z(), q.x(),
-                 q.y(), q.z(), q.w());
+    std::snprintf(row, sizeof(row), "%.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", stamped.first, t.x(), t.y(),
+                  t.z(), q.x(), q.y(), q.z(), q.w());
+    text += row;
   }
-  const bool failed = std::ferror(file) != 0;
-  if (std::fclose(file) != 0 || failed || std::rename(partial.c_str(), path.c_str()) != 0) {
-    std::remove(partial.c_str());
-    throw InputError(path + ": writing the trajectory failed");
-  }
+  writeTextFileAtomically(path, text, "trajectory");
 }
 
 }  // namespace amhmvs

@@ -4,6 +4,7 @@
 #include <sstream>
 #include <vector>
 
+#include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/core/median.h"
 
@@ -99,8 +100,7 @@ void KeyframePicker::reset() {
 PickDecision KeyframePicker::motionDecision(const Eigen::Isometry3d& camera_to_world) const {
   if (!have_keyframe_ || options_.everyFrame()) return PickDecision::kKeyframe;
   const double moved = (camera_to_world.translation() - last_keyframe_.translation()).norm();
-  const double turned =
-      Eigen::AngleAxisd(last_keyframe_.linear().transpose() * camera_to_world.linear()).angle() * 180.0 / M_PI;
+  const double turned = rotationAngleDeg(last_keyframe_.linear().transpose() * camera_to_world.linear());
   const bool far_enough = options_.min_translation_m > 0 && moved >= options_.min_translation_m;
   const bool turned_enough = options_.min_rotation_deg > 0 && turned >= options_.min_rotation_deg;
   if (!far_enough && !turned_enough) return PickDecision::kTooClose;

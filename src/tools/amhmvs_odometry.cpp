@@ -5,7 +5,6 @@
 // mapper behind a real tracker has to live with.
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -111,20 +110,8 @@ float bilinear(const ImageU8& grey, double x, double y) {
                             fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1)));
 }
 
-ImageU8 greyOf(const ImageU8& image) {
-  if (image.channels == 1) return image;
-  ImageU8 grey(image.width, image.height, 1);
-  for (int y = 0; y < image.height; ++y) {
-    for (int x = 0; x < image.width; ++x) {
-      grey.at(x, y) = static_cast<uint8_t>(std::lround(0.299 * image.at(x, y, 0) + 0.587 * image.at(x, y, 1) +
-                                                       0.114 * image.at(x, y, 2)));
-    }
-  }
-  return grey;
-}
-
 OdometryFrame odometryFrame(const PosedFrame& frame, const DepthMapView& depth, double max_depth_m) {
-  const ImageU8 grey = greyOf(readImage(frame.image_path));
+  const ImageU8 grey = toGray(readImage(frame.image_path));
   if (grey.width != frame.camera.width || grey.height != frame.camera.height) {
     throw InputError(frame.image_path + ": " + std::to_string(grey.width) + "x" + std::to_string(grey.height) +
                      " but its camera is " + std::to_string(frame.camera.width) + "x" +
@@ -186,8 +173,6 @@ cv::Mat toMat(const Eigen::Isometry3d& pose) {
   return m;
 }
 
-double degrees(const Eigen::Matrix3d& rotation) { return Eigen::AngleAxisd(rotation).angle() * 180 / M_PI; }
-
 int run(const std::vector<std::string>& args) {
   const std::string sequence_dir = args[0], trajectory_path = args[1];
   const OdometryOptions options = parseArguments({args.begin() + 2, args.end()});
@@ -231,7 +216,7 @@ int run(const std::vector<std::string>& args) {
     estimated.push_back(pose);
     const Eigen::Isometry3d since_keyframe = keyframe_pose.inverse() * pose;
     if (!aligned || since_keyframe.translation().norm() >= options.keyframe_translation_m ||
-        degrees(since_keyframe.rotation()) >= options.keyframe_rotation_deg) {
+        rotationAngleDeg(since_keyframe.rotation()) >= options.keyframe_rotation_deg) {
       keyframe = std::move(current);
       keyframe_pose = pose;
       ++keyframes;
@@ -265,15 +250,7 @@ int run(const std::vector<std::string>& args) {
     json.erase(json.rfind("\n}"));  // the tracker's own counts join the object
     json += ",\n  \"method\": \"" + options.method + "\",\n  \"tracker_keyframes\": " + std::to_string(keyframes) +
             ",\n  \"failed_to_align\": " + std::to_string(failures) + "\n}\n";
-    const std::string partial = options.report_path + ".part";
-    {
-      std::ofstream out(partial);
-      out << json;
-      if (!out.flush()) throw InputError(options.report_path + ": cannot write the report");
-    }
-    if (std::rename(partial.c_str(), options.report_path.c_str()) != 0) {
-      throw InputError(options.report_path + ": cannot write the report");
-    }
+    writeTextFileAtomically(options.report_path, json, "report");
   }
   return 0;
 }

@@ -4,6 +4,8 @@
 // centres at integer coordinates, so the top-left pixel's centre is (0, 0).
 #pragma once
 
+#include <cmath>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <string>
@@ -41,6 +43,11 @@ struct ViewMotion {
   // Row y's camera centre minus the middle row's, in the camera frame.
   Eigen::Vector3d rowOffset(double row, int height) const { return rowTime(row, height) * velocity; }
 };
+
+// The angle of a rotation, in degrees.
+inline double rotationAngleDeg(const Eigen::Matrix3d& rotation) {
+  return Eigen::AngleAxisd(rotation).angle() * 180.0 / M_PI;
+}
 
 struct PinholeCamera {
   double fx = 0, fy = 0, cx = 0, cy = 0;
