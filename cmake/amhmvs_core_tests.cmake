@@ -1,7 +1,7 @@
 # The core unit tests without catkin (AMHMVS_CORE_ONLY): Debian's googletest
 # sources (/usr/src/googletest, package googletest) are built with this build's
 # compiler and flags, so a clang or sanitizer build instruments gtest too;
-# else an installed GTest package. `ctest` or build/amhmvs_unit_tests runs them.
+# else an installed GTest package. `ctest` or build/amhmvs_<layer>_tests runs them.
 
 option(AMHMVS_BUILD_TESTS "Build the core unit tests (core-only build)" ON)
 if(NOT AMHMVS_BUILD_TESTS)
@@ -15,8 +15,5 @@ else()
   find_package(GTest REQUIRED)
   add_library(gtest_main ALIAS GTest::gtest_main)
 endif()
-amhmvs_unit_test_sources(AMHMVS_UNIT_TEST_SOURCES)
-add_executable(amhmvs_unit_tests ${AMHMVS_UNIT_TEST_SOURCES})
-amhmvs_configure_unit_tests(amhmvs_unit_tests)
 enable_testing()
-add_test(NAME amhmvs_unit_tests COMMAND amhmvs_unit_tests)
+amhmvs_add_unit_tests(ctest)

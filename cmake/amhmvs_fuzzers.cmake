@@ -15,7 +15,7 @@ add_compile_options(-fsanitize=fuzzer-no-link)
 
 function(amhmvs_add_fuzzer name source)
   add_executable(${name} ${CMAKE_CURRENT_SOURCE_DIR}/test/fuzz/${source})
-  target_link_libraries(${name} amhmvs_core ${ARGN})
+  target_link_libraries(${name} amhmvs_mapping ${ARGN})
   target_link_options(${name} PRIVATE -fsanitize=fuzzer)
   list(APPEND AMHMVS_FUZZER_TARGETS ${name})
   set(AMHMVS_FUZZER_TARGETS ${AMHMVS_FUZZER_TARGETS} PARENT_SCOPE)

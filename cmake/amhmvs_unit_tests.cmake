@@ -1,25 +1,51 @@
-# The core unit tests (test/unit, ROS-free) as one gtest program; shared by the
+# The ROS-free unit tests: one gtest program per library, amhmvs_<layer>_tests
+# from test/unit/<layer>/test_*.cpp, plus amhmvs_tools_tests for the
+# command-line programs and the docs' commands (test/unit/tools). Shared by the
 # catkin build (catkin_add_gtest) and the plain-CMake core build.
 #
-# amhmvs_unit_test_sources(VAR): the test sources and the tool sources they call.
-# amhmvs_configure_unit_tests(TARGET): links the core and names the programs
-# and folders the tests use.
+# AMHMVS_UNIT_TEST_LAYERS: the folders of test/unit, lowest layer first.
+# amhmvs_add_unit_tests(catkin|ctest): defines every program (catkin_add_gtest,
+# or add_executable with add_test) and the target amhmvs_unit_tests that
+# builds them all.
 
-function(amhmvs_unit_test_sources var)
-  file(GLOB tests CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/test/unit/test_*.cpp)
+set(AMHMVS_UNIT_TEST_LAYERS core io mvs simulation mapping eval tools)
+
+# The tool sources that tests call in-process (once, for every program).
+function(amhmvs_add_test_support)
   set(tools depth_job synthetic_problem keyframe_picker map_options)
   list(TRANSFORM tools PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/src/tools/)
   list(TRANSFORM tools APPEND .cpp)
-  set(${var} ${tests} ${tools} PARENT_SCOPE)
+  add_library(amhmvs_test_support STATIC ${tools})
+  target_link_libraries(amhmvs_test_support PUBLIC amhmvs_simulation amhmvs_eval)
+  target_include_directories(amhmvs_test_support PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/src/tools)
 endfunction()
 
-function(amhmvs_configure_unit_tests target)
-  target_link_libraries(${target} amhmvs_simulation amhmvs_eval gtest_main)
-  target_include_directories(${target} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src/tools
-                             ${CMAKE_CURRENT_SOURCE_DIR}/test)
-  target_compile_definitions(${target} PRIVATE
-    AMHMVS_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}"
-    AMHMVS_DEPTH_BIN="$<TARGET_FILE:amhmvs_depth>"
-    AMHMVS_TOOLS_DIR="$<TARGET_FILE_DIR:amhmvs_depth>")
-  add_dependencies(${target} amhmvs_depth amhmvs_synthetic ${AMHMVS_MAPPING_TOOLS} ${AMHMVS_STUDY_TOOLS})
-endfunction()
+macro(amhmvs_add_unit_tests registry)
+  amhmvs_add_test_support()
+  set(amhmvs_unit_test_programs)
+  foreach(layer ${AMHMVS_UNIT_TEST_LAYERS})
+    file(GLOB tests CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/test/unit/${layer}/test_*.cpp)
+    set(program amhmvs_${layer}_tests)
+    if("${registry}" STREQUAL "catkin")
+      catkin_add_gtest(${program} ${tests})
+    else()
+      add_executable(${program} ${tests})
+      add_test(NAME ${program} COMMAND ${program})
+    endif()
+    target_link_libraries(${program} amhmvs_test_support gtest_main)
+    # test/unit: the shared test helpers; src: the layers' private headers.
+    target_include_directories(${program} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test/unit
+                               ${CMAKE_CURRENT_SOURCE_DIR}/test ${CMAKE_CURRENT_SOURCE_DIR}/src)
+    target_compile_definitions(${program} PRIVATE
+      AMHMVS_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}"
+      AMHMVS_DEPTH_BIN="$<TARGET_FILE:amhmvs_depth>"
+      AMHMVS_TOOLS_DIR="$<TARGET_FILE_DIR:amhmvs_depth>")
+    add_dependencies(${program} amhmvs_depth amhmvs_synthetic ${AMHMVS_MAPPING_TOOLS} ${AMHMVS_STUDY_TOOLS})
+    list(APPEND amhmvs_unit_test_programs ${program})
+  endforeach()
+  add_custom_target(amhmvs_unit_tests DEPENDS ${amhmvs_unit_test_programs})
+  # Their paths, one per line, for scripts/run_tests.sh.
+  list(TRANSFORM amhmvs_unit_test_programs REPLACE "(.+)" "$<TARGET_FILE:\\1>")
+  list(JOIN amhmvs_unit_test_programs "\n" amhmvs_unit_test_files)
+  file(GENERATE OUTPUT ${CMAKE_BINARY_DIR}/unit_test_programs.txt CONTENT "${amhmvs_unit_test_files}\n")
+endmacro()

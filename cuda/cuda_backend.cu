@@ -8,7 +8,7 @@
 #include <cstring>
 #include <sstream>
 
-#include "../src/mvs/backends.h"
+#include "mvs/backends.h"
 #include "amhmvs_mapping/mvs/plane_map.h"
 #include "cuda_check.h"
 #include "device_image_pool.h"

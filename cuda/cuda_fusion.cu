@@ -12,7 +12,7 @@
 #include <map>
 #include <vector>
 
-#include "../src/mapping/fusion_driver.h"
+#include "mapping/fusion_driver.h"
 #include "amhmvs_mapping/core/prepared_vector.h"
 #include "amhmvs_mapping/core/stopwatch.h"
 #include "cuda_check.h"

@@ -34,18 +34,33 @@ export AMHMVS_DATA_DIR=$data
 # runs and the geometric pass on the four Middlebury scenes.
 slow='RealData.*:FuseCliRealData.*:DepthCliColmap.*:MapCli.*:OdometryCli.Redkitchen*:EstimatorOnSyntheticScene.*:GeometricConsistency.GeometricPassImproves*'
 
+# run_unit_programs BUILD EXCLUDED OUT [PREFIX...]: every unit-test program
+# of BUILD (one per library, as its unit_test_programs.txt lists them) without
+# the EXCLUDED tests (a gtest pattern list), each with its XML result in OUT,
+# run under PREFIX (e.g. env VAR=...). Appends the XML files to unit_results;
+# fails when any program fails.
+unit_results=()
+run_unit_programs() {
+  local build_dir=$1 excluded=$2 out=$3 rc=0 program xml
+  shift 3
+  mkdir -p "$out"
+  while read -r program; do
+    xml=$out/$(basename "$program").xml
+    "$@" "$program" --gtest_filter="*-$excluded" --gtest_output=xml:"$xml" || rc=1
+    unit_results+=("$xml")
+  done < "$build_dir/unit_test_programs.txt"
+  return $rc
+}
+
 if [ "$fast" = true ]; then
   AMHMVS_MAKE_TARGETS="amhmvs_unit_tests" "$here/scripts/build.sh"
-  results=$build/test_results/fast_unit_tests.xml
-  mkdir -p "$(dirname "$results")"
+  mkdir -p "$build/test_results"
+  log=$build/test_results/fast_unit_tests.log
   start=$(date +%s)
-  set +e
-  "$build/devel/lib/amhmvs_mapping/amhmvs_unit_tests" --gtest_filter="-$slow" --gtest_output=xml:"$results" \
-    > "$build/test_results/fast_unit_tests.log" 2>&1
-  status=$?
-  set -e
-  grep -E "^\[  FAILED  \]" "$build/test_results/fast_unit_tests.log" || true
-  python3 "$here/scripts/count_test_results.py" "$results"
+  status=0
+  run_unit_programs "$build" "$slow" "$build/test_results/fast" > "$log" 2>&1 || status=1
+  grep -E "^\[  FAILED  \]" "$log" || true
+  python3 "$here/scripts/count_test_results.py" "${unit_results[@]}"
   echo "fast tier: unit tests in $(( $(date +%s) - start )) s (log: $build/test_results/fast_unit_tests.log)"
   exit $status
 fi
@@ -125,12 +140,9 @@ run_logged() {
 }
 
 echo "== unit, CLI and real-data tests =="
-results=$build/test_results/amhmvs_unit_tests.xml
-mkdir -p "$(dirname "$results")"
-set +e
-"$build/devel/lib/amhmvs_mapping/amhmvs_unit_tests" --gtest_output=xml:"$results"
-status=$?
-set -e
+status=0
+run_unit_programs "$build" "" "$build/test_results/unit" || status=1
+all_unit_results=("${unit_results[@]}")
 # The core suite again without catkin, built by clang (-O1) with
 # AddressSanitizer + UndefinedBehaviorSanitizer (any finding aborts the test;
 # the same build holds the fuzz targets; only the programs the tests run are
@@ -154,9 +166,11 @@ CC=clang CXX=clang++ AMHMVS_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -DNDEBUG" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -DNDEBUG" \
   > "$core_results/build_asan.log" 2>&1 || { tail -30 "$core_results/build_asan.log"; status=1; }
 echo "sanitizer build: $(( $(date +%s) - core_start )) s"
+unit_results=()
 run_logged "sanitizer core suite" "$core_results/asan_unit_tests.log" \
-  env ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 "$asan_build/amhmvs_unit_tests" \
-  --gtest_filter="-$slow:$slow_under_sanitizers" --gtest_output=xml:"$core_results/asan_unit_tests.xml"
+  run_unit_programs "$asan_build" "$slow:$slow_under_sanitizers" "$core_results/asan" \
+  env ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1
+all_unit_results+=("${unit_results[@]}")
 fuzz_seconds=${AMHMVS_FUZZ_SECONDS:-10}
 run_logged "fuzzers ($fuzz_seconds s each)" "$core_results/fuzzers.log" \
   env AMHMVS_FUZZ_SECONDS="$fuzz_seconds" AMHMVS_FUZZ_BUILD_DIR="$asan_build" \
@@ -278,5 +292,5 @@ demo_and_checks() {
 run_logged "demo" "$demo_out.log" demo_and_checks
 ros_runs+=("script:$rc")
 
-python3 "$here/scripts/count_test_results.py" "$results" "$core_results/asan_unit_tests.xml" "$core_results/fuzzers.xml" "${ros_runs[@]}"
+python3 "$here/scripts/count_test_results.py" "${all_unit_results[@]}" "$core_results/fuzzers.xml" "${ros_runs[@]}"
 exit $status

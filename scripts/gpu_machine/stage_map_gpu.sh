@@ -24,7 +24,7 @@ for p in $programs amhmvs_synthetic; do
   [ -x "$devel/lib/amhmvs_mapping/$p" ] || { echo "missing $devel/lib/amhmvs_mapping/$p: build first" >&2; exit 1; }
 done
 for p in $programs; do cp "$devel/lib/amhmvs_mapping/$p" "$tree/bin/"; done
-cp "$devel/lib/libamhmvs_core.so" "$tree/lib/"
+cp "$devel"/lib/libamhmvs_{core,io,mvs,mapping}.so "$tree/lib/"
 python3 "$here/scripts/gpu_machine/library_closure.py" "$tree" "$devel/lib" "$tree"/bin/* \
   --stub libgdal.so.32 --stub libgdcmMSFF.so.3.0 --stub libgdcmDSED.so.3.0 --returning GDALAllRegister
 

@@ -32,7 +32,7 @@ tree=$work/rosgpu
 mkdir -p "$tree"/{bin,lib,share,data,config}
 multiarch=/usr/lib/x86_64-linux-gnu
 
-for f in "$build/devel/lib/libamhmvs_mapping_nodelet.so" "$build/devel/lib/libamhmvs_core.so" \
+for f in "$build/devel/lib/libamhmvs_mapping_nodelet.so" "$build"/devel/lib/libamhmvs_{core,io,mvs,mapping}.so \
          "$data/bags/strecha_fountain_x0.25.bag" "$data/mvsnet/fountain_x0.25/sparse_points.txt"; do
   [ -e "$f" ] || { echo "missing $f" >&2; exit 1; }
 done
@@ -46,7 +46,7 @@ g++ -O2 -std=c++17 -I/usr/include/xmlrpcpp -I/usr/include/pluginlib -I/usr/inclu
 strip "$tree/bin/nodelet_replay"
 
 echo "== libraries"
-cp "$build/devel/lib/libamhmvs_mapping_nodelet.so" "$build/devel/lib/libamhmvs_core.so" "$tree/lib/"
+cp "$build/devel/lib/libamhmvs_mapping_nodelet.so" "$build"/devel/lib/libamhmvs_{core,io,mvs,mapping}.so "$tree/lib/"
 cp "$multiarch/ros/libimage_transport_plugins.so" "$multiarch/ros/librosbag_default_encryption_plugins.so" "$tree/lib/"
 python3 "$here/scripts/gpu_machine/library_closure.py" "$tree" "$build/devel/lib" "$tree/bin/nodelet_replay" \
   --stub libgdal.so.32 --stub libgdcmMSFF.so.3.0 --stub libgdcmDSED.so.3.0 --stub libOpenEXR-3_1.so.30

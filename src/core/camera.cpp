@@ -121,4 +121,16 @@ double triangulationAngle(const Eigen::Vector3d& center_a, const Eigen::Vector3d
   return std::acos(std::max(-1.0, std::min(1.0, a.dot(b))));
 }
 
+Eigen::Isometry3d cameraToWorld(const PinholeCamera& camera) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = camera.R.transpose();
+  pose.translation() = -camera.R.transpose() * camera.t;
+  return pose;
+}
+
+void setCameraToWorld(const Eigen::Isometry3d& camera_to_world, PinholeCamera* camera) {
+  camera->R = camera_to_world.linear().transpose();
+  camera->t = -camera->R * camera_to_world.translation();
+}
+
 }  // namespace amhmvs

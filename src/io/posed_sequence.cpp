@@ -12,7 +12,6 @@
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/tum_trajectory.h"
-#include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "file_util.h"
 #include "stamp_association.h"
 

@@ -43,18 +43,6 @@ std::string checkImage(const Image<T>& image, const PinholeCamera& camera, const
 
 }  // namespace
 
-Eigen::Isometry3d cameraToWorld(const PinholeCamera& camera) {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = camera.R.transpose();
-  pose.translation() = -camera.R.transpose() * camera.t;
-  return pose;
-}
-
-void setCameraToWorld(const Eigen::Isometry3d& camera_to_world, PinholeCamera* camera) {
-  camera->R = camera_to_world.linear().transpose();
-  camera->t = -camera->R * camera_to_world.translation();
-}
-
 std::string Keyframe::validate() const {
   std::ostringstream why;
   const std::string camera_problem = camera.validate();

@@ -36,6 +36,11 @@ FusionView fusionView(int local_id, const StoredKeyframe& stored) {
 
 using Clock = std::chrono::steady_clock;
 
+// The keyframe bundle adjustment runs (rolling-shutter images may be rectified again).
+bool adjustsKeyframes(const PoseRefinementOptions& options) {
+  return options.enabled && options.keyframe_bundle_adjustment;
+}
+
 // Total score of the selected sources (they come first among the candidates).
 double selectionScore(const SourceSelection& selection) {
   double score = 0;
@@ -103,6 +108,7 @@ OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction 
   if (!problems.empty()) throw InputError("online mapper options:\n" + problems);
   if (!estimate_) throw InputError("online mapper: no estimate function");
   if (options.pose_refinement.enabled) pose_refiner_.reset(new PoseRefiner(options.pose_refinement));
+  rolling_shutter_.setOptions(options.rolling_shutter, adjustsKeyframes(options.pose_refinement));
 }
 
 KeyframeResult OnlineMapper::process(Keyframe keyframe, bool next_follows) {
@@ -111,7 +117,7 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe, bool next_follows) {
   result.id = keyframe.id;
   result.camera = keyframe.camera;
   noteEvicted(store_.add(std::move(keyframe)), &result);
-  rectifyRollingShutter(result.id);
+  rolling_shutter_.rectifyStored(result.id, estimates_started_, &store_);
   handOutUndelivered(&result);
   result.times.store_ms = millisecondsSince(start);
   const int64_t id = result.id;
@@ -154,159 +160,32 @@ std::vector<int64_t> OnlineMapper::addSourceView(Keyframe keyframe) {
   KeyframeResult result;
   const int64_t id = keyframe.id;
   noteEvicted(store_.add(std::move(keyframe)), &result);
-  rectifyRollingShutter(id);
+  rolling_shutter_.rectifyStored(id, estimates_started_, &store_);
   markSourceOnly(id, &result);
   return result.evicted;
 }
 
-void OnlineMapper::rectifyRollingShutter(int64_t id) {
-  const RollingShutterOptions& options = options_.rolling_shutter;
-  if (!options.enabled()) return;
-  const Keyframe& stored = store_.keyframe(id);
-  const PoseRefinementOptions& refinement = options_.pose_refinement;
-  const bool adjusted = refinement.enabled && refinement.keyframe_bundle_adjustment;
-  if (options.use_tracker_velocity && stored.velocity) {  // no estimate from the previous pose
-    motion_anchor_ = {true, id, stored.stamp, stored.camera, true, estimates_started_};
-    if (adjusted && options.solvesTrackerVelocity())
-      rerectifiable_[id] = {stored.image, stored.velocity->angular, *stored.velocity};
-    store_.replaceImage(id, amhmvs::rectifyRollingShutter(stored.image, stored.camera, stored.velocity->angular,
-                                                          options.readout_s));
-    if (options.translation) store_.setMotion(id, {stored.velocity->linear, options.readout_s});
-    ++rolling_shutter_rectified_;
-    ++rolling_shutter_from_tracker_velocity_;
-    return;
-  }
-  const MotionAnchor previous = motion_anchor_;
-  motion_anchor_ = {true, id, stored.stamp, stored.camera, false, estimates_started_};
-  const double interval = stored.stamp - previous.stamp;
-  if (!previous.set || !(interval > 0) || interval > options.max_interval_s) {
-    ++rolling_shutter_not_rectified_;
-    return;
-  }
-  const Eigen::Vector3d angular_velocity = cameraAngularVelocity(previous.camera, stored.camera, interval);
-  const bool rectified_again_later = options.from_adjusted_poses && adjusted;
-  const auto rectifyStored = [&](int64_t key) {
-    const Keyframe& keyframe = store_.keyframe(key);
-    if (rectified_again_later) rerectifiable_[key] = {keyframe.image, angular_velocity, std::nullopt};
-    store_.replaceImage(key, amhmvs::rectifyRollingShutter(keyframe.image, keyframe.camera, angular_velocity,
-                                                           options.readout_s));
-    ++rolling_shutter_rectified_;
-  };
-  rectifyStored(id);
-  motion_anchor_.rectified = true;
-  // The first keyframe of a run had no motion to go by; nothing has read its image yet.
-  if (!previous.rectified && previous.estimates_started == estimates_started_ && store_.contains(previous.id)) {
-    rectifyStored(previous.id);
-    --rolling_shutter_not_rectified_;
-  }
-}
-
-namespace {
-// A change below this much turn over a readout moves no pixel by more than a
-// few hundredths (1e-4 rad x a focal length of a few hundred px); nor does
-// this much shift of a row's centre (1e-4 m at 2 m).
-constexpr double kMinRectificationChange = 1e-4;
-}  // namespace
-
 bool OnlineMapper::reestimatesLeft(int64_t id) const {
-  const auto record = estimates_.find(id);
-  return record == estimates_.end() ||
+  const auto record = records_.find(id);
+  return record == records_.end() ||
          record->second.pose_reestimates < options_.pose_refinement.max_pose_reestimates;
 }
 
-std::map<int64_t, VelocityPrior> OnlineMapper::velocityPriors() const {
-  const RollingShutterOptions& options = options_.rolling_shutter;
-  std::map<int64_t, VelocityPrior> priors;
-  for (const auto& [id, rectified] : rerectifiable_) {
-    if (!rectified.tracker_velocity || !store_.contains(id)) continue;
-    VelocityPrior& prior = priors[id];
-    prior.angular_sigma_rad_s = options.tracker_velocity_sigma_rad_s;
-    prior.linear_sigma_m_s = options.tracker_velocity_sigma_m_s;
-    prior.offset.angular = rectified.angular_velocity - rectified.tracker_velocity->angular;
-    prior.offset.linear = store_.entry(id).motion.velocity - rectified.tracker_velocity->linear;
-  }
-  return priors;
-}
-
-void OnlineMapper::planRectificationFromVelocities(const std::map<int64_t, CameraVelocity>& corrections) {
-  const double readout_s = options_.rolling_shutter.readout_s;
-  for (const auto& [id, correction] : corrections) {
-    const auto rectified = rerectifiable_.find(id);
-    if (rectified == rerectifiable_.end() || !store_.contains(id)) continue;
-    // A depth map that is not estimated again keeps the image it was estimated from.
-    if (!reestimatesLeft(id) || std::max(correction.angular.norm(), correction.linear.norm()) * readout_s <=
-                                    kMinRectificationChange) {
-      rectify_again_.erase(id);
-      continue;
-    }
-    rectify_again_[id] = {rectified->second.angular_velocity + correction.angular,
-                          Eigen::Vector3d(store_.entry(id).motion.velocity + correction.linear)};
-  }
-}
-
-void OnlineMapper::planRectificationFromPoses(const std::map<int64_t, Eigen::Isometry3d>& poses) {
-  if (rerectifiable_.empty()) return;
-  const double readout_s = options_.rolling_shutter.readout_s;
-  std::vector<std::pair<double, int64_t>> by_time;
-  for (const auto& entry : poses)
-    if (store_.contains(entry.first)) by_time.emplace_back(store_.keyframe(entry.first).stamp, entry.first);
-  std::sort(by_time.begin(), by_time.end());
-  for (size_t i = 0; i < by_time.size(); ++i) {
-    const auto rectified = rerectifiable_.find(by_time[i].second);
-    // Keyframes with the tracker's velocity: planRectificationFromVelocities.
-    if (rectified == rerectifiable_.end() || rectified->second.tracker_velocity) continue;
-    // A depth map that is not estimated again keeps the image it was estimated from.
-    if (!reestimatesLeft(rectified->first)) {
-      rectify_again_.erase(rectified->first);
-      continue;
-    }
-    // The mean of the chords to the keyframes before and after (each turn's
-    // axis is the same in both of its cameras' frames).
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    int chords = 0;
-    const auto addChord = [&](size_t earlier, size_t later) {
-      const double seconds = by_time[later].first - by_time[earlier].first;
-      if (!(seconds > 0) || seconds > options_.rolling_shutter.max_interval_s) return;
-      sum += cameraAngularVelocity(poses.at(by_time[earlier].second).linear(), poses.at(by_time[later].second).linear(),
-                                   seconds);
-      ++chords;
-    };
-    if (i > 0) addChord(i - 1, i);
-    if (i + 1 < by_time.size()) addChord(i, i + 1);
-    if (chords == 0) continue;
-    const Eigen::Vector3d wanted = sum / chords;
-    if ((wanted - rectified->second.angular_velocity).norm() * readout_s > kMinRectificationChange)
-      rectify_again_[rectified->first] = {wanted, std::nullopt};
-    else
-      rectify_again_.erase(rectified->first);
-  }
+void OnlineMapper::planRectification(const KeyframeBundleAdjustmentResult& adjusted) {
+  const auto reestimates_left = [this](int64_t id) { return reestimatesLeft(id); };
+  rolling_shutter_.planFromPoses(adjusted.poses, store_, reestimates_left);
+  rolling_shutter_.planFromVelocities(adjusted.velocity_corrections, store_, reestimates_left);
 }
 
 void OnlineMapper::rectifyDueAgain() {
   const double readout_s = options_.rolling_shutter.readout_s;
-  for (const auto& due : rectify_again_) {
-    const int64_t id = due.first;
-    const Eigen::Vector3d wanted = due.second.angular_velocity;  // a variable: the lambda below captures it
-    const auto rectified = rerectifiable_.find(id);
-    if (rectified == rerectifiable_.end() || !store_.contains(id)) continue;
-    const PinholeCamera camera = store_.keyframe(id).camera;
-    store_.replaceImage(id, amhmvs::rectifyRollingShutter(rectified->second.unrectified, camera, wanted, readout_s));
-    if (forget_image_) forget_image_(id);
-    const Eigen::Vector3d used = rectified->second.angular_velocity;
+  for (const ImageRectifiedAgain& again : rolling_shutter_.rectifyDueAgain(&store_)) {
+    if (forget_image_) forget_image_(again.id);
     if (pose_refiner_)
-      pose_refiner_->moveFeatures(
-          id, [&](const Eigen::Vector2d& pixel) { return rectifiedAgain(pixel, camera, used, wanted, readout_s); });
-    rectified->second.angular_velocity = wanted;
-    if (due.second.linear_velocity) store_.setMotion(id, {*due.second.linear_velocity, readout_s});
-    ++image_revisions_[id];
-    ++rolling_shutter_rectified_again_;
+      pose_refiner_->moveFeatures(again.id, [&](const Eigen::Vector2d& pixel) {
+        return rectifiedAgain(pixel, again.camera, again.used, again.wanted, readout_s);
+      });
   }
-  rectify_again_.clear();
-}
-
-int OnlineMapper::imageRevision(int64_t id) const {
-  const auto found = image_revisions_.find(id);
-  return found != image_revisions_.end() ? found->second : 0;
 }
 
 bool OnlineMapper::fuseDeferred(KeyframeResult* result) {
@@ -375,7 +254,7 @@ bool OnlineMapper::refine(KeyframeResult* result) {
   rectifyDueAgain();  // nothing reads the images now
   if (options_.refinement.max_refinements == 0) return fuseDeferred(result);
   const Clock::time_point start = Clock::now();
-  for (auto& [id, record] : estimates_) {
+  for (auto& [id, record] : records_) {
     if (stereoPosesMoved(id, record)) {
       ++record.pose_reestimates;
       estimateStored(id, selectSources(store_, id, options_.sources), /*late=*/false, start, result);
@@ -398,19 +277,19 @@ bool OnlineMapper::refine(KeyframeResult* result) {
 }
 
 void OnlineMapper::noteReplacedDepthMap(int64_t id) {
-  for (const auto& [other, record] : estimates_) {
+  for (auto& [other, record] : records_) {
     if (other != id && record.fused &&
         std::find(record.fused_with.begin(), record.fused_with.end(), id) != record.fused_with.end()) {
-      fused_against_replaced_maps_.insert(other);
+      record.fused_against_replaced_map = true;
     }
   }
 }
 
 bool OnlineMapper::fuseAgainstReplacedMaps(KeyframeResult* result) {
   const size_t required = requiredConsistencyViews();
-  while (!fused_against_replaced_maps_.empty()) {
-    const int64_t id = *fused_against_replaced_maps_.begin();
-    fused_against_replaced_maps_.erase(fused_against_replaced_maps_.begin());
+  for (auto& [id, record] : records_) {  // lowest id first
+    if (!record.fused_against_replaced_map) continue;
+    record.fused_against_replaced_map = false;
     if (std::find(waiting_.begin(), waiting_.end(), id) != waiting_.end()) continue;  // fused anyway
     const Clock::time_point start = Clock::now();
     std::vector<int64_t> views = consistencyViews(id);
@@ -489,15 +368,15 @@ void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult
     result->refinement_evidence = verdict.reason;
     result->refinement_rejected = !verdict.keep_new;
   }
-  EstimateRecord& record = estimates_[id];
+  KeyframeRecord& record = records_[id];
   record.sources = sources;  // also when rejected: the same selection is not tried again
   record.score = selectionScore(result->selection);
   record.stereo_reference = problem.reference_camera;
   record.stereo_sources.clear();
   for (size_t s = 0; s < sources.size() && s < problem.source_cameras.size(); ++s)
     record.stereo_sources[sources[s]] = problem.source_cameras[s];
-  record.image_revisions = {{id, imageRevision(id)}};
-  for (int64_t source : sources) record.image_revisions[source] = imageRevision(source);
+  record.image_revisions = {{id, rolling_shutter_.imageRevision(id)}};
+  for (int64_t source : sources) record.image_revisions[source] = rolling_shutter_.imageRevision(source);
   if (result->refinement_rejected) {
     result->waiting_for_fusion = waiting_.size();
     return;
@@ -549,20 +428,16 @@ DepthMap OnlineMapper::estimateWhileFusing(const DepthProblem& problem, Keyframe
 
 OnlineMapper::Forgotten OnlineMapper::forgetKeyframe(int64_t id) {
   Forgotten forgotten;
-  estimates_.erase(id);
+  records_.erase(id);
   if (pose_refiner_) pose_refiner_->forget(id);
   refined_poses_.forget(id);
   map_poses_.erase(id);  // its points stay in the map where they are
-  rerectifiable_.erase(id);
-  rectify_again_.erase(id);
-  image_revisions_.erase(id);
+  rolling_shutter_.forget(id);
   const auto without_depth = std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id);
   if (without_depth != waiting_for_sources_.end()) {
     waiting_for_sources_.erase(without_depth);
     forgotten.was_waiting_for_sources = true;
   }
-  fused_with_fewer_views_.erase(id);
-  fused_against_replaced_maps_.erase(id);
   const auto waiting = std::find(waiting_.begin(), waiting_.end(), id);
   if (waiting != waiting_.end()) {
     waiting_.erase(waiting);
@@ -599,16 +474,19 @@ void OnlineMapper::fuseWaiting(KeyframeResult* result) {
   // views than the confidence counts waits for more (fuseAgain) during the
   // next kUnderfusedRechecks depth maps only, so that keyframes which never
   // get more (a sparse stretch) cost nothing for the rest of the run.
-  for (auto it = fused_with_fewer_views_.begin(); it != fused_with_fewer_views_.end();) {
-    it->second.views_checked = false;  // a new depth map may be a new view
-    it = --it->second.rechecks_left <= 0 ? fused_with_fewer_views_.erase(it) : std::next(it);
+  for (auto& [id, record] : records_) {
+    if (!record.underfused) continue;
+    record.underfused->views_checked = false;  // a new depth map may be a new view
+    if (--record.underfused->rechecks_left <= 0) record.underfused.reset();
   }
 }
 
 bool OnlineMapper::fuseAgain(KeyframeResult* result) {
   if (fusionDeferred()) return fuseDeferred(result);  // newer work first
   const Clock::time_point start = Clock::now();
-  for (auto& [id, entry] : fused_with_fewer_views_) {
+  for (auto& [id, record] : records_) {
+    if (!record.underfused) continue;
+    Underfused& entry = *record.underfused;
     if (entry.views_checked) continue;  // nothing changed since (an idle pipeline asks again and again)
     if (std::find(waiting_.begin(), waiting_.end(), id) != waiting_.end()) continue;  // refined: waits anew
     std::vector<int64_t> views = consistencyViews(id);
@@ -637,19 +515,19 @@ void OnlineMapper::fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResul
   // With the confidence off too: more views confirm more of the depth map,
   // so the map's coverage does not depend on whether the later keyframes
   // were estimated before this one was fused (a machine's speed).
+  KeyframeRecord& record = records_[id];
   if (options_.confidence.again_with_more_views && views.size() < counted) {
-    fused_with_fewer_views_[id] = Underfused{views.size(), kUnderfusedRechecks};
+    record.underfused = Underfused{views.size(), kUnderfusedRechecks};
   } else {
-    fused_with_fewer_views_.erase(id);
+    record.underfused.reset();
   }
   FusedKeyframe fused;
   fused.consistency_ids = std::move(views);
   fused.id = id;
-  EstimateRecord& record = estimates_[id];
   fused.again = record.fused;
   record.fused = true;
   record.fused_with = fused.consistency_ids;
-  fused_against_replaced_maps_.erase(id);
+  record.fused_against_replaced_map = false;
   fused.stamp = store_.keyframe(id).stamp;
   fused.camera = store_.keyframe(id).camera;
   Clock::time_point start = Clock::now();
@@ -805,7 +683,8 @@ bool OnlineMapper::adjustKeyframePoses(int64_t id, DepthProblem* problem) {
     cameras[stored] = store_.keyframe(stored).camera;
     if (store_.entry(stored).motion.rolling()) motions[stored] = store_.entry(stored).motion;
   }
-  const KeyframeBundleAdjustmentResult adjusted = pose_refiner_->adjustKeyframes(cameras, motions, velocityPriors());
+  const KeyframeBundleAdjustmentResult adjusted =
+      pose_refiner_->adjustKeyframes(cameras, motions, rolling_shutter_.velocityPriors(store_));
   if (!adjusted.solved) return false;
   // Every refined pair of two adjusted keyframes at their adjusted relative pose.
   std::vector<std::pair<int64_t, int64_t>> pairs;
@@ -822,12 +701,11 @@ bool OnlineMapper::adjustKeyframePoses(int64_t id, DepthProblem* problem) {
     refined_poses_.place(id, problem->reference_camera, problem->source_keys[s], &problem->source_cameras[s]);
   map_poses_ = adjusted.poses;
   placeMapPoses();
-  planRectificationFromPoses(adjusted.poses);
-  planRectificationFromVelocities(adjusted.velocity_corrections);
+  planRectification(adjusted);
   return true;
 }
 
-bool OnlineMapper::stereoPosesMoved(int64_t id, const EstimateRecord& record) const {
+bool OnlineMapper::stereoPosesMoved(int64_t id, const KeyframeRecord& record) const {
   // Relative depth error of a pose change at a parallax of ~3 deg (10 cm at
   // 2 m): 0.01 deg of rotation ~0.3 %; a baseline 0.2 % longer 0.2 %.
   // (pose_refinement.h: max_pose_reestimates)
@@ -838,7 +716,7 @@ bool OnlineMapper::stereoPosesMoved(int64_t id, const EstimateRecord& record) co
       record.pose_reestimates >= options.max_pose_reestimates || !store_.contains(id))
     return false;
   for (const auto& [key, revision] : record.image_revisions)
-    if (store_.contains(key) && imageRevision(key) != revision) return true;  // rectified again since
+    if (store_.contains(key) && rolling_shutter_.imageRevision(key) != revision) return true;  // rectified again since
   for (const auto& [source, used] : record.stereo_sources) {
     PinholeCamera now = used;
     if (!store_.contains(source) || !refined_poses_.place(id, record.stereo_reference, source, &now)) continue;
@@ -903,7 +781,8 @@ bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_wor
   const bool stored = store_.contains(id);
   if (stored) store_.updatePose(id, camera_to_world);
   map_poses_.erase(id);  // the next pose graph starts from the new pose
-  for (auto& entry : fused_with_fewer_views_) entry.second.views_checked = false;  // views follow the poses
+  for (auto& [other, record] : records_)  // views follow the poses
+    if (record.underfused) record.underfused->views_checked = false;
   finishMapWork();
   if (!map_.contains(id)) return stored;
   map_.updatePose(id, camera_to_world);
@@ -914,20 +793,11 @@ bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_wor
 void OnlineMapper::reset() {
   store_ = KeyframeStore(options_.store);
   waiting_.clear();
-  fused_with_fewer_views_.clear();
-  fused_against_replaced_maps_.clear();
   evicted_before_fusion_ = 0;
   waiting_for_sources_.clear();
   evicted_without_depth_ = 0;
-  motion_anchor_ = MotionAnchor();
-  rolling_shutter_rectified_ = 0;
-  rolling_shutter_not_rectified_ = 0;
-  rolling_shutter_rectified_again_ = 0;
-  rerectifiable_.clear();
-  rectify_again_.clear();
-  image_revisions_.clear();
-  rolling_shutter_from_tracker_velocity_ = 0;
-  estimates_.clear();
+  rolling_shutter_.reset();
+  records_.clear();
   fusion_deferred_ = false;
   undelivered_ = KeyframeResult();
   if (pose_refiner_) pose_refiner_->forgetAll();
@@ -966,12 +836,13 @@ void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
     noteMapChanged();
   }
   kept.map = map_.options();
-  for (auto& entry : estimates_) entry.second.selection_checked_at = EstimateRecord::kNeverChecked;  // new criteria
+  for (auto& entry : records_) entry.second.selection_checked_at = KeyframeRecord::kNeverChecked;  // new criteria
   if (!options.pose_refinement.enabled) {
     pose_refiner_.reset();
   } else if (!pose_refiner_ || pose_refiner_->options() != options.pose_refinement) {
     pose_refiner_.reset(new PoseRefiner(options.pose_refinement));  // features of other settings: detected again
   }
+  rolling_shutter_.setOptions(kept.rolling_shutter, adjustsKeyframes(kept.pose_refinement));
   options_ = kept;
 }
 

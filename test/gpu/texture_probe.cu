@@ -1,7 +1,7 @@
 #include <algorithm>
 
-#include "../../cuda/cuda_check.h"
-#include "../../cuda/layered_texture.h"
+#include "cuda_check.h"
+#include "layered_texture.h"
 #include "texture_probe.h"
 
 namespace amhmvs {

@@ -115,4 +115,9 @@ Eigen::Vector3d cameraAngularVelocity(const Eigen::Matrix3d& earlier_to_world, c
 double triangulationAngle(const Eigen::Vector3d& center_a, const Eigen::Vector3d& center_b,
                           const Eigen::Vector3d& point);
 
+// Camera-to-world pose of a camera (PinholeCamera stores world-to-camera).
+Eigen::Isometry3d cameraToWorld(const PinholeCamera& camera);
+// Sets the camera's world-to-camera R, t from a camera-to-world pose.
+void setCameraToWorld(const Eigen::Isometry3d& camera_to_world, PinholeCamera* camera);
+
 }  // namespace amhmvs

@@ -42,11 +42,6 @@
 
 namespace amhmvs {
 
-// Camera-to-world pose of a camera (PinholeCamera stores world-to-camera).
-Eigen::Isometry3d cameraToWorld(const PinholeCamera& camera);
-// Sets the camera's world-to-camera R, t from a camera-to-world pose.
-void setCameraToWorld(const Eigen::Isometry3d& camera_to_world, PinholeCamera* camera);
-
 struct Keyframe {
   int64_t id = 0;
   double stamp = 0;      // seconds; non-decreasing over the store's adds

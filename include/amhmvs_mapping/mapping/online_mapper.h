@@ -71,7 +71,6 @@
 #include <map>
 #include <memory>
 #include <optional>
-#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -85,6 +84,7 @@
 #include "amhmvs_mapping/mapping/pose_refinement.h"
 #include "amhmvs_mapping/mapping/refined_relative_poses.h"
 #include "amhmvs_mapping/mapping/rolling_shutter.h"
+#include "amhmvs_mapping/mapping/rolling_shutter_rectifier.h"
 #include "amhmvs_mapping/mapping/source_selection.h"
 #include "amhmvs_mapping/mapping/voxel_map.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
@@ -321,12 +321,12 @@ class OnlineMapper {
   // and those used as they came (no keyframe within max_interval_s before
   // them to tell the motion; the first of a run is rectified with the
   // second's motion while nothing has read its image yet).
-  size_t rollingShutterRectified() const { return rolling_shutter_rectified_; }
-  size_t rollingShutterNotRectified() const { return rolling_shutter_not_rectified_; }
+  size_t rollingShutterRectified() const { return rolling_shutter_.rectified(); }
+  size_t rollingShutterNotRectified() const { return rolling_shutter_.notRectified(); }
   // Of the rectified, those with the tracker's velocity (use_tracker_velocity).
-  size_t rollingShutterFromTrackerVelocity() const { return rolling_shutter_from_tracker_velocity_; }
+  size_t rollingShutterFromTrackerVelocity() const { return rolling_shutter_.fromTrackerVelocity(); }
   // rolling_shutter.from_adjusted_poses: images rectified again (each time counts).
-  size_t rollingShutterRectifiedAgain() const { return rolling_shutter_rectified_again_; }
+  size_t rollingShutterRectifiedAgain() const { return rolling_shutter_.rectifiedAgain(); }
   // Called with a keyframe's id when the mapper replaced its image (rectified
   // again), before anything reads the new one: an estimator that keeps
   // images resident by key must forget(id), as for an evicted keyframe.
@@ -374,8 +374,19 @@ class OnlineMapper {
   // `start`: when the call began (its selection is timed from there).
   void estimateStored(int64_t id, SourceSelection selection, bool late,
                       std::chrono::steady_clock::time_point start, KeyframeResult* result);
-  // What a keyframe's depth map was estimated with (for refine()).
-  struct EstimateRecord {
+  // Fused keyframes whose last fusion had fewer views than the confidence
+  // counts (calibration.max_views, at most the cap): how many, and how many
+  // more depth maps may still bring them more (fuseAgain).
+  struct Underfused {
+    size_t views = 0;
+    int rechecks_left = 0;
+    bool views_checked = false;  // by fuseAgain since the last depth map or pose update
+  };
+  static constexpr int kUnderfusedRechecks = 8;
+  // Everything the mapper keeps of a keyframe with a depth map besides the
+  // store's entry: what it was estimated with (for refine()) and where its
+  // fusion stands. One record per keyframe, so that forgetting one is one erase.
+  struct KeyframeRecord {
     std::vector<int64_t> sources;
     double score = 0;  // total selection score
     int refinements = 0;
@@ -394,10 +405,15 @@ class OnlineMapper {
     // How often the reference's and the sources' images had been rectified
     // again when it was estimated (rolling_shutter.from_adjusted_poses).
     std::map<int64_t, int> image_revisions;
+    // Set while it may be fused again with more views (fuseAgain).
+    std::optional<Underfused> underfused;
+    // Fused against a depth map that a refinement replaced since
+    // (refinement.fuse_neighbours_again): fused again once nothing is left to refine.
+    bool fused_against_replaced_map = false;
   };
   // True when the keyframe bundle adjustment has moved a source of the
   // record's estimate (relative to its reference) enough to change the depth.
-  bool stereoPosesMoved(int64_t id, const EstimateRecord& record) const;
+  bool stereoPosesMoved(int64_t id, const KeyframeRecord& record) const;
   // The consistency views of a keyframe with a depth map (see step 5).
   std::vector<int64_t> consistencyViews(int64_t id) const;
   // The consistency views of keyframe `id` as fusion reads them: local ids
@@ -437,26 +453,13 @@ class OnlineMapper {
   size_t requiredConsistencyViews() const;
   // Marks stored keyframe `id` done without depth (a source only).
   void markSourceOnly(int64_t id, KeyframeResult* result);
-  // Rolling shutter: rectifies a keyframe just stored, in the store (and the
-  // keyframe before it when that one could not be and nothing read it yet),
-  // and notes it as the motion anchor of the next.
-  void rectifyRollingShutter(int64_t id);
-  // rolling_shutter.from_adjusted_poses: the angular velocity of each
-  // keyframe rectified from chords, from the adjusted poses around it; those
-  // that differ from their rectification's are due to be rectified again.
-  void planRectificationFromPoses(const std::map<int64_t, Eigen::Isometry3d>& poses);
-  // rolling_shutter.solvesTrackerVelocity(): the priors of the keyframes
-  // whose velocity the adjustment solves, and, after it, those whose solved
-  // velocity differs from their rectification's and motion's are due again.
-  std::map<int64_t, VelocityPrior> velocityPriors() const;
-  void planRectificationFromVelocities(const std::map<int64_t, CameraVelocity>& corrections);
-  // Rectifies the due keyframes again (their features move along); the
-  // depth maps that read them are then estimated again (stereoPosesMoved).
+  // The rolling-shutter part's planning after a keyframe bundle adjustment,
+  // and its re-rectification (features and resident images follow).
+  void planRectification(const KeyframeBundleAdjustmentResult& adjusted);
   void rectifyDueAgain();
   // Whether keyframe `id`'s depth map may still be estimated again
   // (pose_refinement.max_pose_reestimates).
   bool reestimatesLeft(int64_t id) const;
-  int imageRevision(int64_t id) const;
   // Drops a keyframe that left the store from every list and cache (not the map).
   struct Forgotten {
     bool was_waiting_for_sources = false;
@@ -495,56 +498,13 @@ class OnlineMapper {
   mutable size_t map_voxel_count_ = 0;
   uint64_t map_revision_ = 0;
   std::vector<int64_t> waiting_;  // estimated, not fused; oldest first
-  // Fused keyframes whose last fusion had fewer views than the confidence
-  // counts (calibration.max_views, at most the cap): how many, and how many
-  // more depth maps may still bring them more (fuseAgain).
-  struct Underfused {
-    size_t views = 0;
-    int rechecks_left = 0;
-    bool views_checked = false;  // by fuseAgain since the last depth map or pose update
-  };
-  static constexpr int kUnderfusedRechecks = 8;
-  std::map<int64_t, Underfused> fused_with_fewer_views_;
-  // Fused against a depth map that a refinement replaced since
-  // (refinement.fuse_neighbours_again): fused again once nothing is left to refine.
-  std::set<int64_t> fused_against_replaced_maps_;
   size_t evicted_before_fusion_ = 0;
   std::vector<int64_t> waiting_for_sources_;  // no source view yet; oldest first
-  std::map<int64_t, EstimateRecord> estimates_;  // keyframes with a depth map
+  std::map<int64_t, KeyframeRecord> records_;  // keyframes with a depth map, by id
   size_t evicted_without_depth_ = 0;
-  // The last keyframe stored (rolling_shutter): the motion to the next one
-  // gives that one's angular velocity.
-  struct MotionAnchor {
-    bool set = false;
-    int64_t id = 0;
-    double stamp = 0;
-    PinholeCamera camera;
-    bool rectified = false;
-    uint64_t estimates_started = 0;  // estimates_started_ when it was stored: unchanged, nothing read its image
-  };
-  MotionAnchor motion_anchor_;
-  uint64_t estimates_started_ = 0;
-  size_t rolling_shutter_rectified_ = 0;
-  size_t rolling_shutter_not_rectified_ = 0;
-  size_t rolling_shutter_from_tracker_velocity_ = 0;
-  // Keyframes whose image may be rectified again, kept as they came with the
-  // angular velocity their stored image is rectified with: those rectified
-  // from chords (rolling_shutter.from_adjusted_poses) and, with
-  // solvesTrackerVelocity(), those rectified with the tracker's velocity,
-  // which they keep as their prior.
-  struct Rerectifiable {
-    ImageU8 unrectified;
-    Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
-    std::optional<CameraVelocity> tracker_velocity;  // set: its velocity is solved
-  };
-  std::map<int64_t, Rerectifiable> rerectifiable_;
-  struct Rectification {
-    Eigen::Vector3d angular_velocity;
-    std::optional<Eigen::Vector3d> linear_velocity;  // set: the rows' centres move with this
-  };
-  std::map<int64_t, Rectification> rectify_again_;  // due, with this velocity
-  std::map<int64_t, int> image_revisions_;            // times rectified again
-  size_t rolling_shutter_rectified_again_ = 0;
+  // Rolling-shutter rectification of the stored images.
+  RollingShutterRectifier rolling_shutter_;
+  uint64_t estimates_started_ = 0;  // images are read once an estimate has started
   std::function<void(int64_t)> forget_image_;
 };
 

@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "../../src/mvs/backends.h"
+#include "mvs/backends.h"
 #include "amhmvs_mapping/mvs/patchmatch_pixel.h"
 #include "test_helpers.h"
 

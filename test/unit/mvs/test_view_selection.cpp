@@ -7,7 +7,7 @@
 #include <cmath>
 #include <vector>
 
-#include "../../src/mvs/backends.h"
+#include "mvs/backends.h"
 #include "test_helpers.h"
 
 namespace amhmvs {

@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "../../src/mvs/backends.h"
+#include "mvs/backends.h"
 #include "amhmvs_mapping/mvs/cpu_sampler.h"
 #include "synthetic_problem.h"
 #include "test_helpers.h"

@@ -10,7 +10,7 @@
 #include <limits>
 #include <vector>
 
-#include "../../src/mvs/backends.h"
+#include "mvs/backends.h"
 #include "amhmvs_mapping/eval/depth_metrics.h"
 #include "depth_job.h"
 #include "test_helpers.h"

@@ -1,6 +1,5 @@
 // Stand-in for the CUDA backend in builds without nvcc.
 #include "amhmvs_mapping/core/error.h"
-#include "../mapping/fusion_driver.h"
 #include "backends.h"
 
 namespace amhmvs {
@@ -27,14 +26,4 @@ DeviceCacheStats cudaCacheStats(const CudaState&) { return {}; }
 DeviceDepthMap cudaLastOutputs(const CudaState&) { return {}; }
 
 }  // namespace mvs
-}  // namespace amhmvs
-
-namespace amhmvs {
-namespace fusion {
-
-std::unique_ptr<ReferenceFusion> makeCudaReferenceFusion(const FuserResources&) {
-  throw BackendError("this build has no CUDA backend (nvcc was not found)");
-}
-
-}  // namespace fusion
 }  // namespace amhmvs
