@@ -1,8 +1,12 @@
 #!/usr/bin/env bash
 # Configures and builds the catkin package (core, CLIs, tests) into build/.
-# CUDA is used when nvcc is found (/usr/local/cuda or PATH); set
-# AMHMVS_CUDA_ARCHITECTURES to limit the GPU targets (CMake syntax), or
-# AMHMVS_WITH_CUDA=OFF for a CPU-only build.
+# CUDA is used when nvcc is found (/usr/local/cuda or PATH), compiled for
+# this machine's GPU, else (no GPU visible: the CUDA code is compiled, not
+# run) for sm_90 only: a quarter of the time of the five targets a release
+# build of the package makes (measured: cuda_backend.cu 75 against 273 s).
+# AMHMVS_CUDA_ARCHITECTURES sets the GPU targets (CMake syntax);
+# AMHMVS_WITH_CUDA=OFF makes a CPU-only build. The demo, the fast tier and the
+# test command all build through here, so they share one configuration.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 # Debian's catkin and pluginlib call python3 from PATH: it must be the
@@ -10,9 +14,16 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:/usr/local/cuda/bin:$PATH
 build=${AMHMVS_BUILD_DIR:-$here/build}
 mkdir -p "$build"
+if [ -z "${AMHMVS_CUDA_ARCHITECTURES:-}" ]; then
+  if nvidia-smi -L > /dev/null 2>&1; then
+    AMHMVS_CUDA_ARCHITECTURES=native
+  else
+    AMHMVS_CUDA_ARCHITECTURES=90
+  fi
+fi
 args=(-DCMAKE_BUILD_TYPE=Release)
 [ -n "${AMHMVS_WITH_CUDA:-}" ] && args+=(-DAMHMVS_WITH_CUDA="$AMHMVS_WITH_CUDA")
-[ -n "${AMHMVS_CUDA_ARCHITECTURES:-}" ] && args+=(-DAMHMVS_CUDA_ARCHITECTURES="$AMHMVS_CUDA_ARCHITECTURES")
+args+=(-DAMHMVS_CUDA_ARCHITECTURES="$AMHMVS_CUDA_ARCHITECTURES")
 # ccache, when installed, makes rebuilds in several checkouts cheap.
 if command -v ccache >/dev/null; then
   args+=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_CUDA_COMPILER_LAUNCHER=ccache)

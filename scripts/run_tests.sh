@@ -65,17 +65,6 @@ if [ "$fast" = true ]; then
   exit $status
 fi
 
-# No GPU code runs in this suite without a GPU: one GPU target (this
-# machine's GPU, else sm_90) still compiles the CUDA code, in a quarter of
-# the time of the five a release build makes (measured: cuda_backend.cu 75
-# against 273 s).
-if [ -z "${AMHMVS_CUDA_ARCHITECTURES:-}" ]; then
-  if nvidia-smi -L > /dev/null 2>&1; then
-    export AMHMVS_CUDA_ARCHITECTURES=native
-  else
-    export AMHMVS_CUDA_ARCHITECTURES=90
-  fi
-fi
 AMHMVS_MAKE_TARGETS="all tests" "$here/scripts/build.sh"
 
 # with_progress DESCRIPTION LOG COMMAND...: runs COMMAND with its output in
