@@ -8,7 +8,8 @@
 
 namespace amhmvs {
 
-PoseAlignment alignPoses(const std::vector<Eigen::Isometry3d>& from, const std::vector<Eigen::Isometry3d>& to) {
+PoseAlignment alignPoses(const std::vector<Eigen::Isometry3d>& from, const std::vector<Eigen::Isometry3d>& to,
+                         AlignmentKind kind) {
   if (from.size() != to.size()) {
     throw InputError("pose alignment: " + std::to_string(from.size()) + " poses to align with " +
                      std::to_string(to.size()));
@@ -27,6 +28,10 @@ PoseAlignment alignPoses(const std::vector<Eigen::Isometry3d>& from, const std::
   fix(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1 : 1;
   PoseAlignment alignment;
   alignment.rotation = svd.matrixU() * fix * svd.matrixV().transpose();
+  if (kind == AlignmentKind::kRigid) {
+    alignment.translation = mean_to - alignment.rotation * mean_from;
+    return alignment;
+  }
   double along = 0, spread = 0;
   for (size_t i = 0; i < from.size(); ++i) {
     const Eigen::Vector3d a = alignment.rotation * (from[i].translation() - mean_from);

@@ -344,10 +344,36 @@ bool canDecodeCompressedImages() {
 #endif
 }
 
+namespace {
+
+// Whether a file starts like one of the compressed formats of
+// supportedImageExtensions() (PNG, JPEG, BMP, TIFF). Only those reach OpenCV:
+// imread probes every decoder it was built with, and some of those libraries
+// abort the process on a corrupt file (GDCM's DICOM reader, found by
+// fuzz_image_header) instead of failing.
+bool hasCompressedImageSignature(const std::string& head) {
+  const auto starts = [&head](const char* magic, size_t size) {
+    return head.size() >= size && std::memcmp(head.data(), magic, size) == 0;
+  };
+  return starts(reinterpret_cast<const char*>(kPngSignature), 8) || starts("\xFF\xD8\xFF", 3) ||
+         starts("BM", 2) || starts("II*\0", 4) || starts("MM\0*", 4);
+}
+
+// The file's first bytes when they are a compressed format OpenCV may
+// decode; else an InputError naming the formats.
+void requireCompressedImageSignature(const std::string& path) {
+  if (!hasCompressedImageSignature(readHead(path, 8))) {
+    throw InputError(path + ": unrecognised image format (expected PNG, JPEG, BMP, TIFF or binary PGM/PPM)");
+  }
+}
+
+}  // namespace
+
 ImageU8 readImage(const std::string& path) {
   const std::string head = readHead(path, 2);
   if (isPnmMagic(head)) return readPnm(path);
 #ifdef AMHMVS_WITH_OPENCV
+  requireCompressedImageSignature(path);
   return internal::readImageOpenCv(path);
 #else
   if (!hasImageExtension(path)) {
@@ -363,6 +389,7 @@ ImageU8 readImage(const std::string& path) {
 Image<uint16_t> readImage16(const std::string& path) {
   if (isPnmMagic(readHead(path, 2))) return readPgm16(path);
 #ifdef AMHMVS_WITH_OPENCV
+  requireCompressedImageSignature(path);
   return internal::readImage16OpenCv(path);
 #else
   throw InputError(path + ": this build has no PNG decoder (built without OpenCV); convert the "

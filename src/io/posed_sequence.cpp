@@ -2,6 +2,7 @@
 // posed sequences (the RGB-D layouts have files of their own).
 #include "amhmvs_mapping/io/posed_sequence.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -138,7 +139,21 @@ void useTrackerTrajectory(const std::string& path, double max_time_difference_s,
   const std::vector<StampedPose> poses = readTumTrajectory(path);
   if (poses.empty()) throw InputError(path + ": the trajectory has no poses");
   const std::vector<internal::Stamped> stamps = internal::sortedStamps(poses);
-  for (PosedFrame& frame : sequence->frames) {
+  // A tracker run over part of the sequence (amhmvs_odometry --start/--count)
+  // maps that part: the frames before its first pose and after its last go.
+  const double first = stamps.front().stamp - max_time_difference_s;
+  const double last = stamps.back().stamp + max_time_difference_s;
+  std::vector<PosedFrame>& frames = sequence->frames;
+  frames.erase(std::remove_if(frames.begin(), frames.end(),
+                              [&](const PosedFrame& frame) { return frame.stamp < first || frame.stamp > last; }),
+               frames.end());
+  if (frames.empty()) {
+    std::ostringstream why;
+    why << path << ": its stamps (" << stamps.front().stamp << " to " << stamps.back().stamp << " s) cover none of "
+        << sequence->dir << "'s frames";
+    throw InputError(why.str());
+  }
+  for (PosedFrame& frame : frames) {
     if (frame.true_camera) {
       throw InputError(path + ": " + sequence->dir + " has true poses besides its own (cams_gt/); a trajectory " +
                        "replaces the poses of a sequence that has none");
@@ -177,7 +192,8 @@ PosedSequence readPosedSequence(const std::string& dir, const PosedSequenceOptio
                            : layout == "mvsnet" ? readMvsnetSequence(dir, options)
                            : layout == "tum"    ? readTumSequence(dir, options)
                                                 : readSevenScenesSequence(dir, options);
-  if (!options.trajectory_path.empty()) useTrackerTrajectory(options.trajectory_path, options.tum_max_time_difference_s, &sequence);
+  if (!options.trajectory_path.empty())
+    useTrackerTrajectory(options.trajectory_path, options.tum_max_time_difference_s, &sequence);
   return sequence;
 }
 

@@ -587,18 +587,19 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
       addWithinFields(map_bound_within_pct, &map_bound_fields);
       map.add("exact_depth_at_map_poses", map_bound_fields.object());
     }
-    if (map_poses.size() >= 2) {
-      // The map after the one similarity from its keyframe poses to the true
-      // ones: its shape apart from the tracker's gauge (eval/pose_alignment.h).
-      const PoseAlignment alignment = alignPoses(map_poses, true_poses);
-      std::vector<Eigen::Vector3f> aligned;
-      aligned.reserve(map_points.size());
-      for (const Eigen::Vector3f& point : map_points) aligned.push_back(alignment.apply(point));
-      JsonFields aligned_fields;
-      addWithinFields(withinPct(aligned), &aligned_fields);
-      aligned_fields.add("scale", number(alignment.scale));
-      aligned_fields.add("rotation_deg", number(Eigen::AngleAxisd(alignment.rotation).angle() * 180 / M_PI));
-      // What is left of each keyframe pose's error after the similarity.
+    // The map after the one similarity (or rigid motion: for a tracker with
+    // metric depth, whose scale cannot drift) from its keyframe poses to the
+    // true ones: its shape apart from the tracker's gauge (eval/pose_alignment.h).
+    const auto aligned = [&](AlignmentKind kind) {
+      const PoseAlignment alignment = alignPoses(map_poses, true_poses, kind);
+      std::vector<Eigen::Vector3f> moved;
+      moved.reserve(map_points.size());
+      for (const Eigen::Vector3f& point : map_points) moved.push_back(alignment.apply(point));
+      JsonFields fields;
+      addWithinFields(withinPct(moved), &fields);
+      fields.add("scale", number(alignment.scale));
+      fields.add("rotation_deg", number(Eigen::AngleAxisd(alignment.rotation).angle() * 180 / M_PI));
+      // What is left of each keyframe pose's error after the alignment.
       std::vector<double> position_mm, rotation_deg;
       for (size_t i = 0; i < map_poses.size(); ++i) {
         const Eigen::Vector3d centre =
@@ -607,13 +608,17 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
         position_mm.push_back(1000 * (centre - true_poses[i].translation()).norm());
         rotation_deg.push_back(Eigen::AngleAxisd(rotation.transpose() * true_poses[i].linear()).angle() * 180 / M_PI);
       }
-      const auto addMedianAndMax = [&aligned_fields](const std::string& name, const std::vector<double>& values) {
-        aligned_fields.add(name + "_median", number(median(values)));
-        aligned_fields.add(name + "_max", number(*std::max_element(values.begin(), values.end())));
+      const auto addMedianAndMax = [&fields](const std::string& name, const std::vector<double>& values) {
+        fields.add(name + "_median", number(median(values)));
+        fields.add(name + "_max", number(*std::max_element(values.begin(), values.end())));
       };
       addMedianAndMax("keyframe_position_error_mm", position_mm);
       addMedianAndMax("keyframe_rotation_error_deg", rotation_deg);
-      map.add("after_similarity_to_true_poses", aligned_fields.object());
+      return fields.object();
+    };
+    if (map_poses.size() >= 2) {
+      map.add("after_similarity_to_true_poses", aligned(AlignmentKind::kSimilarity));
+      map.add("after_rigid_alignment_to_true_poses", aligned(AlignmentKind::kRigid));
     }
   }
   summary.add("map", map.object());

@@ -102,9 +102,11 @@ struct PosedSequenceOptions {
   // of the sequence's own poses. Its poses are of the camera the sequence's
   // poses are of (7-Scenes: the depth camera; the others: the colour
   // camera), matched to the frames by stamp (the nearest, within
-  // tum_max_time_difference_s; a frame without one is an error); the colour
-  // camera keeps its place on the depth camera. The sequence's own poses
-  // become the frames' true_camera, for reports. Empty: the sequence's poses.
+  // tum_max_time_difference_s; a frame between the trajectory's first and
+  // last pose without one is an error, the frames before and after it are
+  // left out: a tracker run over part of the sequence maps that part); the
+  // colour camera keeps its place on the depth camera. The sequence's own
+  // poses become the frames' true_camera, for reports. Empty: the sequence's poses.
   std::string trajectory_path;
 
   // Empty when valid; otherwise one line per problem.

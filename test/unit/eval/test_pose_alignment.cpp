@@ -1,6 +1,7 @@
 // alignPoses (eval/pose_alignment.h): a known similarity between two sets of
-// poses (centres nearly on a line) is found exactly; bad inputs are refused
-// by name.
+// poses (centres nearly on a line) is found exactly, and so is a rigid
+// motion, which keeps the scale at 1 where the poses differ in scale too;
+// bad inputs are refused by name.
 #include <gtest/gtest.h>
 
 #include <vector>
@@ -38,6 +39,40 @@ TEST(PoseAlignment, FindsTheSimilarityBetweenTwoTrajectories) {
   EXPECT_LT((same.rotation - Eigen::Matrix3d::Identity()).norm(), 1e-9);
   EXPECT_NEAR(same.scale, 1.0, 1e-12);
   EXPECT_LT(same.translation.norm(), 1e-12);
+}
+
+TEST(PoseAlignment, RigidAlignmentKeepsTheScale) {
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(-0.7, Eigen::Vector3d(0.2, 1, -0.4).normalized()).toRotationMatrix();
+  const Eigen::Vector3d shift(-0.5, 0.4, 1.5);
+  std::vector<Eigen::Isometry3d> from, rigid, scaled;
+  for (int i = 0; i < 5; ++i) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = Eigen::AngleAxisd(0.15 * i, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    pose.translation() = Eigen::Vector3d(0.2 * i, -0.05 * i, 0.01 * i * i);
+    from.push_back(pose);
+    Eigen::Isometry3d moved = Eigen::Isometry3d::Identity();
+    moved.linear() = turn * pose.linear();
+    moved.translation() = turn * pose.translation() + shift;
+    rigid.push_back(moved);
+    moved.translation() = 1.1 * turn * pose.translation() + shift;  // scale 1.1 about the world origin
+    scaled.push_back(moved);
+  }
+  const PoseAlignment exact = alignPoses(from, rigid, AlignmentKind::kRigid);
+  EXPECT_EQ(exact.scale, 1.0);
+  EXPECT_LT((exact.rotation - turn).norm(), 1e-9);
+  EXPECT_LT((exact.translation - shift).norm(), 1e-9);
+  // Scaled centres: the rigid fit keeps scale 1, rotates as the orientations
+  // say and puts the centres' means together (the least-squares translation).
+  const PoseAlignment kept = alignPoses(from, scaled, AlignmentKind::kRigid);
+  EXPECT_EQ(kept.scale, 1.0);
+  EXPECT_LT((kept.rotation - turn).norm(), 1e-9);
+  Eigen::Vector3d mean_from = Eigen::Vector3d::Zero(), mean_to = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < from.size(); ++i) {
+    mean_from += from[i].translation() / from.size();
+    mean_to += scaled[i].translation() / scaled.size();
+  }
+  EXPECT_LT((turn * mean_from + kept.translation - mean_to).norm(), 1e-9);
+  EXPECT_NEAR(alignPoses(from, scaled).scale, 1.1, 1e-9);  // the similarity sees the scale
 }
 
 TEST(PoseAlignment, BadInputIsRefused) {

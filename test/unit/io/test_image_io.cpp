@@ -193,6 +193,28 @@ TEST(ImageIo, PngDecodesToInputWithOpenCv) {
   EXPECT_EQ(back.at(1, 1, 2), 0);
 }
 
+// Only PNG, JPEG, BMP and TIFF files reach OpenCV's decoders: the fuzzer's
+// file (a bad PNM magic, then bytes that OpenCV handed to GDCM's DICOM
+// reader, which aborted the process) and other formats are refused by name.
+TEST(ImageIo, FilesOfOtherFormatsNeverReachTheDecoders) {
+  if (!canDecodeCompressedImages()) GTEST_SKIP() << "built without OpenCV";
+  test::TempDir tmp;
+  std::string dicom_like = "P" + std::string(103, '\xf9') + "6\n#1\xff" + "6\n #1? \xf7" + std::string(1, '\0') +
+                           "\x02" + std::string(1, '\0') + "DCAP)VEC";
+  dicom_like += std::string("DICMT") + '\0' + "=";  // DICOM's magic at byte 128
+  const std::string dicom_preamble = std::string(128, '\0') + "DICM" + std::string(64, '\x01');
+  const std::string exr = std::string("\x76\x2f\x31\x01") + std::string(60, '\0');
+  for (const auto& [name, bytes] : {std::pair<std::string, std::string>{"fuzzed.png", dicom_like},
+                                    {"scan.dcm", dicom_preamble}, {"light.exr", exr}}) {
+    const std::string path = tmp.write(name, bytes);
+    EXPECT_INPUT_ERROR(readImage(path), name, "unrecognised image format (expected PNG, JPEG, BMP, TIFF");
+    EXPECT_INPUT_ERROR(readImage16(path), name, "unrecognised image format");
+  }
+  // A real PNG still decodes (the signature gate lets it through).
+  writePng(tmp.file("ok.png"), ImageU8(3, 2, 1, 7));
+  EXPECT_EQ(readImage(tmp.file("ok.png")).width, 3);
+}
+
 TEST(ImageIo, WithoutOpenCvPngIsAClearError) {
   if (canDecodeCompressedImages()) GTEST_SKIP() << "built with OpenCV";
   test::TempDir tmp;

@@ -154,10 +154,22 @@ TEST(PosedSequence, TrackerTrajectoryReplacesThePosesAndKeepsThemAsTheTruth) {
   const DepthMapView placed = trueSurfaceView({sequence.frames[2].ground_truth.depth_camera, ImageF()}, sequence.frames[2]);
   EXPECT_TRUE(cameraToWorld(placed.camera).isApprox(cameraToWorld(recorded.frames[2].ground_truth.depth_camera), 1e-12));
 
+  // A tracker run over the first two frames maps those two; one with a gap
+  // between its poses is refused at the frame it has no pose for.
   writeTumTrajectory(dir.file("short.txt"), {tracked[0], tracked[1]}, "");
   options.trajectory_path = dir.file("short.txt");
-  EXPECT_INPUT_ERROR(readPosedSequence(root, options), "short.txt: no pose within 0.02 s of frame-000010.color.png",
-                     "stamp 0.333");
+  const PosedSequence part = readPosedSequence(root, options);
+  ASSERT_EQ(part.frames.size(), 2u);
+  EXPECT_EQ(part.frames[1].name, recorded.frames[1].name);
+  EXPECT_TRUE(cameraToWorld(part.frames[1].ground_truth.depth_camera).isApprox(tracked[1].second, 1e-12));
+  writeTumTrajectory(dir.file("gap.txt"), {tracked[0], tracked[2]}, "");
+  options.trajectory_path = dir.file("gap.txt");
+  EXPECT_INPUT_ERROR(readPosedSequence(root, options),
+                     "gap.txt: no pose within 0.02 s of " + recorded.frames[1].name, "stamp");
+  writeTumTrajectory(dir.file("later.txt"), {{100.0, tracked[0].second}}, "");
+  options.trajectory_path = dir.file("later.txt");
+  EXPECT_INPUT_ERROR(readPosedSequence(root, options), "later.txt: its stamps (100 to 100 s) cover none of",
+                     "frames");
   writeTumTrajectory(dir.file("empty.txt"), {}, "nothing");
   options.trajectory_path = dir.file("empty.txt");
   EXPECT_INPUT_ERROR(readPosedSequence(root, options), "empty.txt", "has no poses");

@@ -392,6 +392,13 @@ TEST(MapCli, TrackerVelocityAtTheTruePoses) {
   // ... and what is left of each keyframe's pose error after it is nothing.
   EXPECT_LT(jsonNumber(bundle, "after_similarity_to_true_poses", "keyframe_position_error_mm_max"), 1e-6) << bundle;
   EXPECT_LT(jsonNumber(bundle, "after_similarity_to_true_poses", "keyframe_rotation_error_deg_max"), 1e-6) << bundle;
+  // So is the rigid alignment (the one to read behind an RGB-D tracker).
+  EXPECT_EQ(jsonNumber(bundle, "after_rigid_alignment_to_true_poses", "scale"), 1.0) << bundle;
+  EXPECT_NEAR(jsonNumber(bundle, "after_rigid_alignment_to_true_poses", "within_2cm_pct"),
+              jsonNumber(bundle, "map", "within_2cm_pct"), 1e-6)
+      << bundle;
+  EXPECT_LT(jsonNumber(bundle, "after_rigid_alignment_to_true_poses", "keyframe_position_error_mm_max"), 1e-6)
+      << bundle;
 }
 
 // Behind a tracker that gives its velocity (velocities.txt, the default
