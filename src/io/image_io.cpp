@@ -344,6 +344,7 @@ bool canDecodeCompressedImages() {
 #endif
 }
 
+#ifdef AMHMVS_WITH_OPENCV
 namespace {
 
 // Whether a file starts like one of the compressed formats of
@@ -359,21 +360,23 @@ bool hasCompressedImageSignature(const std::string& head) {
          starts("BM", 2) || starts("II*\0", 4) || starts("MM\0*", 4);
 }
 
-// The file's first bytes when they are a compressed format OpenCV may
-// decode; else an InputError naming the formats.
-void requireCompressedImageSignature(const std::string& path) {
-  if (!hasCompressedImageSignature(readHead(path, 8))) {
+// Throws an InputError naming the formats unless the file's first bytes
+// (`head`, at least 8 where the file has them) are a compressed format
+// OpenCV may decode.
+void requireCompressedImageSignature(const std::string& path, const std::string& head) {
+  if (!hasCompressedImageSignature(head)) {
     throw InputError(path + ": unrecognised image format (expected PNG, JPEG, BMP, TIFF or binary PGM/PPM)");
   }
 }
 
 }  // namespace
+#endif
 
 ImageU8 readImage(const std::string& path) {
-  const std::string head = readHead(path, 2);
+  const std::string head = readHead(path, 8);
   if (isPnmMagic(head)) return readPnm(path);
 #ifdef AMHMVS_WITH_OPENCV
-  requireCompressedImageSignature(path);
+  requireCompressedImageSignature(path, head);
   return internal::readImageOpenCv(path);
 #else
   if (!hasImageExtension(path)) {
@@ -387,9 +390,10 @@ ImageU8 readImage(const std::string& path) {
 }
 
 Image<uint16_t> readImage16(const std::string& path) {
-  if (isPnmMagic(readHead(path, 2))) return readPgm16(path);
+  const std::string head = readHead(path, 8);
+  if (isPnmMagic(head)) return readPgm16(path);
 #ifdef AMHMVS_WITH_OPENCV
-  requireCompressedImageSignature(path);
+  requireCompressedImageSignature(path, head);
   return internal::readImage16OpenCv(path);
 #else
   throw InputError(path + ": this build has no PNG decoder (built without OpenCV); convert the "

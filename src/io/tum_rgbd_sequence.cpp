@@ -18,7 +18,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-
 // (stamp, path) lines of rgb.txt / depth.txt.
 std::vector<std::pair<double, std::string>> readStampedPaths(const std::string& path) {
   std::vector<std::pair<double, std::string>> entries;

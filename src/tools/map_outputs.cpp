@@ -598,7 +598,7 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
       JsonFields fields;
       addWithinFields(withinPct(moved), &fields);
       fields.add("scale", number(alignment.scale));
-      fields.add("rotation_deg", number(Eigen::AngleAxisd(alignment.rotation).angle() * 180 / M_PI));
+      fields.add("rotation_deg", number(rotationAngleDeg(alignment.rotation)));
       // What is left of each keyframe pose's error after the alignment.
       std::vector<double> position_mm, rotation_deg;
       for (size_t i = 0; i < map_poses.size(); ++i) {
@@ -606,7 +606,7 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
             alignment.scale * alignment.rotation * map_poses[i].translation() + alignment.translation;
         const Eigen::Matrix3d rotation = alignment.rotation * map_poses[i].linear();
         position_mm.push_back(1000 * (centre - true_poses[i].translation()).norm());
-        rotation_deg.push_back(Eigen::AngleAxisd(rotation.transpose() * true_poses[i].linear()).angle() * 180 / M_PI);
+        rotation_deg.push_back(rotationAngleDeg(rotation.transpose() * true_poses[i].linear()));
       }
       const auto addMedianAndMax = [&fields](const std::string& name, const std::vector<double>& values) {
         fields.add(name + "_median", number(median(values)));

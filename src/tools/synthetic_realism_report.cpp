@@ -27,7 +27,7 @@ FrameRealismReport reportFrame(const RenderedView& view, const PinholeCamera& wr
   r.gain = disturbance.gain;
   r.offset = disturbance.offset;
   r.position_error_m = (written.center() - view.camera.center()).norm();
-  r.rotation_error_deg = Eigen::AngleAxisd(written.R * view.camera.R.transpose()).angle() * 180.0 / M_PI;
+  r.rotation_error_deg = rotationAngleDeg(written.R * view.camera.R.transpose());
   r.pose_error_px = meanImageMotion(view.depth, view.camera, written);
   const double offset = options.time_offset_s, readout = options.rolling_shutter_s, exposure = options.motion_blur_s;
   r.time_offset_px = motionBetween(view, trajectory, frame, 0, offset);
