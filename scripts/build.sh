@@ -22,6 +22,12 @@ if [ -z "${AMHMVS_CUDA_ARCHITECTURES:-}" ]; then
   fi
 fi
 args=(-DCMAKE_BUILD_TYPE=Release)
+# Ninja compiles a library's files while the layer below it still links (Make
+# waits for each target), which keeps both cores busy while nvcc runs. A
+# build folder made by another generator keeps it.
+if command -v ninja >/dev/null && [ ! -f "$build/Makefile" ]; then
+  args+=(-G Ninja)
+fi
 [ -n "${AMHMVS_WITH_CUDA:-}" ] && args+=(-DAMHMVS_WITH_CUDA="$AMHMVS_WITH_CUDA")
 args+=(-DAMHMVS_CUDA_ARCHITECTURES="$AMHMVS_CUDA_ARCHITECTURES")
 # ccache, when installed, makes rebuilds in several checkouts cheap.
@@ -30,4 +36,5 @@ if command -v ccache >/dev/null; then
 fi
 cmake -S "$here" -B "$build" "${args[@]}" > "$build/configure.log" 2>&1 || { cat "$build/configure.log"; exit 1; }
 grep -E "amhmvs:" "$build/configure.log" || true
-cmake --build "$build" -j "$(nproc)" -- ${AMHMVS_MAKE_TARGETS:-all}
+# shellcheck disable=SC2086
+cmake --build "$build" -j "$(nproc)" --target ${AMHMVS_MAKE_TARGETS:-all}

@@ -11,7 +11,7 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake pkg-config git
+  build-essential cmake ninja-build pkg-config git
   catkin python3-catkin-pkg python3-rospkg python3-empy ros-base-dev
   ros-message-generation ros-message-runtime
   libnodeletlib-dev libnodeletlib-tools libnodelet-dev python3-nodelet
