@@ -12,6 +12,10 @@ build=$1
 shift
 mkdir -p "$build"
 args=(-DAMHMVS_CORE_ONLY=ON -DAMHMVS_WITH_CUDA=OFF -DCMAKE_BUILD_TYPE=${AMHMVS_BUILD_TYPE:-Release})
+# Ninja, as scripts/build.sh: a new build folder only.
+if command -v ninja >/dev/null && [ ! -f "$build/Makefile" ]; then
+  args+=(-G Ninja)
+fi
 if command -v ccache >/dev/null; then
   args+=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 fi
@@ -19,4 +23,4 @@ cmake -S "$here" -B "$build" "${args[@]}" "$@" > "$build/configure.log" 2>&1 ||
   { cat "$build/configure.log"; exit 1; }
 grep -E "amhmvs:" "$build/configure.log" || true
 # shellcheck disable=SC2086
-cmake --build "$build" -j "$(nproc)" -- ${AMHMVS_MAKE_TARGETS:-all}
+cmake --build "$build" -j "$(nproc)" --target ${AMHMVS_MAKE_TARGETS:-all}
