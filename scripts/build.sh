@@ -24,8 +24,8 @@ fi
 args=(-DCMAKE_BUILD_TYPE=Release)
 # Ninja compiles a library's files while the layer below it still links (Make
 # waits for each target), which keeps both cores busy while nvcc runs. A
-# build folder made by another generator keeps it.
-if command -v ninja >/dev/null && [ ! -f "$build/Makefile" ]; then
+# configured build folder keeps the generator it was made with.
+if command -v ninja >/dev/null && [ ! -f "$build/CMakeCache.txt" ]; then
   args+=(-G Ninja)
 fi
 [ -n "${AMHMVS_WITH_CUDA:-}" ] && args+=(-DAMHMVS_WITH_CUDA="$AMHMVS_WITH_CUDA")

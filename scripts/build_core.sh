@@ -13,7 +13,7 @@ shift
 mkdir -p "$build"
 args=(-DAMHMVS_CORE_ONLY=ON -DAMHMVS_WITH_CUDA=OFF -DCMAKE_BUILD_TYPE=${AMHMVS_BUILD_TYPE:-Release})
 # Ninja, as scripts/build.sh: a new build folder only.
-if command -v ninja >/dev/null && [ ! -f "$build/Makefile" ]; then
+if command -v ninja >/dev/null && [ ! -f "$build/CMakeCache.txt" ]; then
   args+=(-G Ninja)
 fi
 if command -v ccache >/dev/null; then
