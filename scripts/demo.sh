@@ -44,7 +44,7 @@ fi
 out=$(mkdir -p "$out" && cd "$out" && pwd)
 
 if [ "$skip_build" = false ] || [ ! -x "$bin/amhmvs_mapping_node" ]; then
-  "$here/scripts/install_dependencies.sh"
+  "$here/scripts/install_dependencies.sh" --demo
   # Only what the demo runs: the node and nodelet, the renderer of its
   # sequence (the tests, benchmarks and other tools are the test command's).
   AMHMVS_MAKE_TARGETS="${AMHMVS_MAKE_TARGETS:-amhmvs_mapping_node amhmvs_mapping_nodelet amhmvs_synthetic amhmvs_mapping_generate_messages_py amhmvs_mapping_gencfg}" \

@@ -1,9 +1,15 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages that amhmvs_mapping needs (ROS 1 from
-# Debian's own packages, Eigen, OpenCV, PCL, gtest, COLMAP for the COLMAP
-# input tests; rviz, Xvfb and ImageMagick for the demo's headless rviz
-# picture; clang with its sanitizer/libFuzzer runtimes, OpenMP and
-# llvm-symbolizer for the core suites and fuzzers of the test command).
+# Debian's own packages, Eigen, OpenCV, PCL, Ceres, gtest; rviz, Xvfb and
+# ImageMagick for the demo's headless rviz picture) and, for the test
+# command, its test-only tools: COLMAP for the COLMAP input tests, clang with
+# its sanitizer/libFuzzer runtimes, OpenMP and llvm-symbolizer for the core
+# suites and fuzzers.
+#
+# usage: scripts/install_dependencies.sh [--demo]
+#   --demo  only what building and running the demo needs (the test-only
+#           tools left out; the build configuration is the same, so the test
+#           command later installs them and rebuilds nothing)
 # Installs only what is missing; needs root (or sudo). apt's output goes to
 # AMHMVS_INSTALL_LOG (default /tmp/amhmvs_install_dependencies.log); the
 # console gets one line (what is installed, how long, where the log is), and
@@ -27,10 +33,14 @@ packages=(
   libmessage-filters-dev python3-message-filters
   python3-sensor-msgs python3-geometry-msgs python3-nav-msgs
   libeigen3-dev libopencv-dev libopencv-contrib-dev libceres-dev libgtest-dev googletest python3-numpy python3-opencv
-  colmap
   rviz xvfb imagemagick libgl1-mesa-dri python3-tf2-msgs python3-diagnostic-msgs python3-rosnode python3-yaml
-  clang libclang-rt-14-dev libomp-14-dev llvm-14
 )
+test_packages=(colmap clang libclang-rt-14-dev libomp-14-dev llvm-14)
+case ${1:-} in
+  --demo) ;;
+  "") packages+=("${test_packages[@]}") ;;
+  *) echo "install_dependencies.sh: unknown option $1 (--demo or nothing)" >&2; exit 2 ;;
+esac
 
 missing=()
 for p in "${packages[@]}"; do

@@ -168,7 +168,8 @@ grep -E "executions|FINDING" "$core_results/fuzzers.log" || true
 
 # ROS tests: the gtest of the nodelet's message conversions, then rostests,
 # each with its own roscore: the fountain bag through the nodelet loaded into
-# a manager (pose topic), through the standalone node (tf), and as Keyframe
+# a manager (pose topic), through the standalone node (tf; it saves its map
+# when shut down), and as Keyframe
 # messages with sparse points from a small SLAM adapter, the temple bag
 # (odometry input, the object's box as the map's region of interest: every
 # map point in the box), the ICL bag (plumbing), keyframe mode with the
@@ -196,7 +197,7 @@ realism_dir=$build/realism_room8
 realism_bag=$build/bags/realism_room8.bag
 ros_tests=(
   "fountain_manager_pose replay_fountain.test standalone:=false input_mode:=pose"
-  "fountain_standalone_tf replay_fountain.test standalone:=true input_mode:=tf"
+  "fountain_standalone_tf replay_fountain.test standalone:=true input_mode:=tf shutdown_map:=$ros_results/fountain_standalone_tf_shutdown_map.ply"
   "fountain_manager_keyframe replay_fountain.test standalone:=false input_mode:=keyframe"
   "fountain_slow_replay replay_fountain.test rate:=0.1"
   "temple_map_odometry_region replay_map.test scene:=temple input_mode:=odometry region:=true"

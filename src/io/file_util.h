@@ -25,14 +25,6 @@ inline std::string readFileBytes(const std::string& path) {
   return bytes;
 }
 
-inline void writeFileBytes(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw InputError(path + ": cannot open file for writing");
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  out.close();
-  if (!out) throw InputError(path + ": write failed (disk full?)");
-}
-
 inline bool isLittleEndianHost() {
   const uint16_t probe = 1;
   return *reinterpret_cast<const uint8_t*>(&probe) == 1;

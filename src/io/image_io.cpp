@@ -9,6 +9,7 @@
 #include <string>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/io/atomic_file.h"
 #include "file_util.h"
 
 #ifdef AMHMVS_WITH_OPENCV
@@ -435,7 +436,7 @@ void writePnm(const std::string& path, const ImageU8& image) {
                       std::to_string(image.width) + " " + std::to_string(image.height) +
                       "\n255\n";
   bytes.append(reinterpret_cast<const char*>(image.data.data()), image.data.size());
-  internal::writeFileBytes(path, bytes);
+  writeFileAtomically(path, bytes, "PNM image");
 }
 
 void writePng(const std::string& path, const ImageU8& image) {
@@ -467,7 +468,7 @@ void writePng(const std::string& path, const ImageU8& image) {
     putChunk(&png, "IDAT", z.data() + pos, std::min(kChunk, z.size() - pos));
   }
   putChunk(&png, "IEND", nullptr, 0);
-  internal::writeFileBytes(path, png);
+  writeFileAtomically(path, png, "PNG image");
 }
 
 }  // namespace amhmvs

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/io/atomic_file.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "file_util.h"
 #include "text_lines.h"
@@ -385,7 +386,7 @@ void writeMvsnetCam(const std::string& path, const PinholeCamera& camera, double
   out << "0 0 1\n\n";
   out << n(depth_min) << ' ' << n((depth_max - depth_min) / 191.0) << " 192 " << n(depth_max)
       << '\n';
-  internal::writeFileBytes(path, out.str());
+  writeFileAtomically(path, out.str(), "camera file");
 }
 
 std::map<int, CameraVelocity> readMvsnetVelocities(const std::string& path) {
@@ -414,7 +415,7 @@ void writeMvsnetVelocities(const std::string& path, const std::map<int, CameraVe
     out << id << ' ' << v.angular.x() << ' ' << v.angular.y() << ' ' << v.angular.z() << ' ' << v.linear.x() << ' '
         << v.linear.y() << ' ' << v.linear.z() << '\n';
   }
-  internal::writeFileBytes(path, out.str());
+  writeFileAtomically(path, out.str(), "velocity file");
 }
 
 }  // namespace amhmvs

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/io/atomic_file.h"
 #include "file_util.h"
 
 namespace amhmvs {
@@ -125,7 +126,7 @@ void writePfm(const std::string& path, const ImageF& image) {
       std::memcpy(dst + i * sizeof(float), &bits, sizeof(bits));
     }
   }
-  internal::writeFileBytes(path, bytes);
+  writeFileAtomically(path, bytes, "PFM image");
 }
 
 }  // namespace amhmvs

@@ -10,6 +10,7 @@
 
 #include "file_util.h"
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/io/atomic_file.h"
 
 namespace amhmvs {
 
@@ -85,7 +86,7 @@ void writePly(const std::string& path, const PointCloud& cloud) {
     if (colors) bytes.append(reinterpret_cast<const char*>(cloud.colors[i].data()), 3);
     if (quality) appendFloat(&bytes, cloud.confidence[i]);
   }
-  internal::writeFileBytes(path, bytes);
+  writeFileAtomically(path, bytes, "PLY point cloud");
 }
 
 void writePcd(const std::string& path, const PointCloud& cloud) {
@@ -116,7 +117,7 @@ void writePcd(const std::string& path, const PointCloud& cloud) {
       for (int k = 0; k < 3; ++k) appendFloat(&bytes, cloud.normals[i][k]);
     }
   }
-  internal::writeFileBytes(path, bytes);
+  writeFileAtomically(path, bytes, "PCD point cloud");
 }
 
 void writePointCloud(const std::string& path, const PointCloud& cloud) {

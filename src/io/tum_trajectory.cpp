@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/io/atomic_file.h"
 #include "text_lines.h"
 
 namespace amhmvs {
@@ -27,17 +28,6 @@ std::vector<StampedPose> readTumTrajectory(const std::string& path) {
   return poses;
 }
 
-void writeTextFileAtomically(const std::string& path, const std::string& text, const std::string& what) {
-  const std::string partial = path + ".part";
-  std::FILE* file = std::fopen(partial.c_str(), "w");
-  if (!file) throw InputError(path + ": cannot write the " + what);
-  const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
-  if (std::fclose(file) != 0 || !written || std::rename(partial.c_str(), path.c_str()) != 0) {
-    std::remove(partial.c_str());
-    throw InputError(path + ": writing the " + what + " failed");
-  }
-}
-
 void writeTumTrajectory(const std::string& path, const std::vector<StampedPose>& poses, const std::string& header) {
   std::string text;
   std::istringstream lines(header);
@@ -51,7 +41,7 @@ void writeTumTrajectory(const std::string& path, const std::vector<StampedPose>&
                   t.z(), q.x(), q.y(), q.z(), q.w());
     text += row;
   }
-  writeTextFileAtomically(path, text, "trajectory");
+  writeFileAtomically(path, text, "trajectory");
 }
 
 }  // namespace amhmvs

@@ -95,6 +95,9 @@ const Table<NodeOptions>& nodeTable() {
                            "seconds: diagnostics WARN while inputs were dropped within this window")),
       textField<O>("map_directory", &O::map_directory,
                    "where ~save_map writes relative paths; empty: the directory roslaunch was started from"),
+      textField<O>("save_map_on_shutdown", &O::save_map_on_shutdown,
+                   "a .ply or .pcd file (relative: under map_directory) the global map is written to when the node "
+                   "shuts down (Ctrl-C on roslaunch); empty: not saved"),
   };
   return table;
 }

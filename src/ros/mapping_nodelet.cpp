@@ -15,7 +15,15 @@ MappingNodelet::~MappingNodelet() {
   inputs_.reset();  // first: no callback feeds a stopping worker
   stop_ = true;
   if (pipeline_) pipeline_->wake();
+  // Bounded: the worker ends after the step it is in (one keyframe at most).
   if (worker_.joinable()) worker_.join();
+  if (pipeline_ && !config_.node.save_map_on_shutdown.empty()) {
+    try {
+      NODELET_INFO("shutting down: %s", saveMap(config_.node.save_map_on_shutdown).c_str());
+    } catch (const std::exception& e) {
+      NODELET_ERROR("shutting down: save_map_on_shutdown failed: %s", e.what());
+    }
+  }
 }
 
 void MappingNodelet::onInit() {
@@ -121,14 +129,7 @@ void MappingNodelet::workerLoop() {
 
 bool MappingNodelet::saveMapService(amhmvs_mapping::SaveMap::Request& req, amhmvs_mapping::SaveMap::Response& res) {
   try {
-    if (req.path.empty()) throw amhmvs::InputError("empty path: give a file name ending in .ply or .pcd");
-    // Relative paths go to ~map_directory (default: where roslaunch was
-    // started, not the node's working directory ~/.ros).
-    const boost::filesystem::path path = boost::filesystem::absolute(req.path, config_.node.map_directory);
-    pipeline_->withMapper([&](const amhmvs::OnlineMapper& mapper) {
-      amhmvs::writeMap(path.string(), mapper.map());
-      res.message = "saved " + std::to_string(mapper.map().voxelCount()) + " points to " + path.string();
-    });
+    res.message = saveMap(req.path);
     res.success = true;
     NODELET_INFO("%s", res.message.c_str());
   } catch (const std::exception& e) {
@@ -137,6 +138,19 @@ bool MappingNodelet::saveMapService(amhmvs_mapping::SaveMap::Request& req, amhmv
     NODELET_ERROR("%s", res.message.c_str());
   }
   return true;
+}
+
+std::string MappingNodelet::saveMap(const std::string& requested) {
+  if (requested.empty()) throw amhmvs::InputError("empty path: give a file name ending in .ply or .pcd");
+  // Relative paths go to ~map_directory (default: where roslaunch was
+  // started, not the node's working directory ~/.ros).
+  const boost::filesystem::path path = boost::filesystem::absolute(requested, config_.node.map_directory);
+  std::string message;
+  pipeline_->withMapper([&](const amhmvs::OnlineMapper& mapper) {
+    amhmvs::writeMap(path.string(), mapper.map());
+    message = "saved " + std::to_string(mapper.map().voxelCount()) + " points to " + path.string();
+  });
+  return message;
 }
 
 void MappingNodelet::reconfigure(MappingTunablesConfig& tunables, uint32_t /*level*/) {

@@ -1,5 +1,6 @@
 // amhmvs_map: runs the online mapping pipeline (MappingPipeline) on a
 // recorded posed sequence, without ROS. See --help (map_options.cpp).
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -11,6 +12,7 @@
 #include "keyframe_picker.h"
 #include "map_options.h"
 #include "map_outputs.h"
+#include "stop_request.h"
 #include "tool_main.h"
 
 namespace amhmvs {
@@ -35,8 +37,9 @@ MappingPipeline::Log stderrLog(bool quiet) {
 
 // Offline: each keyframe waits for the pipeline (push, then step until idle).
 void runOffline(const PosedSequence& sequence, PickedKeyframes* picked, const MapToolOptions& options,
-                MappingPipeline* pipeline, MapOutputs* outputs, MapRunTotals* totals) {
+                const StopRequest& stop, MappingPipeline* pipeline, MapOutputs* outputs, MapRunTotals* totals) {
   for (size_t index : picked->indices) {
+    if (stop.requested()) break;
     const Clock::time_point read_start = Clock::now();
     Keyframe keyframe = makeKeyframe(sequence.frames[index], options, picked->takeDecoded(index));
     totals->reading_s += secondsSince(read_start);
@@ -50,7 +53,8 @@ void runOffline(const PosedSequence& sequence, PickedKeyframes* picked, const Ma
 // (scaled by the rate), as a camera would; the pipeline's queue drops the
 // oldest when the estimator falls behind.
 void runRealtime(const PosedSequence& sequence, PickedKeyframes* picked, const MapToolOptions& options,
-                 MappingPipeline* pipeline, MapOutputs* outputs, MapRunTotals* totals) {
+                 const StopRequest& stop_request, MappingPipeline* pipeline, MapOutputs* outputs,
+                 MapRunTotals* totals) {
   std::atomic<bool> fed{false}, stop{false};
   std::exception_ptr feeder_error;
   double reading_s = 0;
@@ -59,11 +63,16 @@ void runRealtime(const PosedSequence& sequence, PickedKeyframes* picked, const M
     try {
       const Clock::time_point start = Clock::now();
       const double first_stamp = sequence.frames[picked->indices.front()].stamp;
+      const auto stopping = [&] { return stop || stop_request.requested(); };
       for (size_t index : picked->indices) {
-        if (stop) break;
         const double due_s = (sequence.frames[index].stamp - first_stamp) / options.realtime_rate;
-        std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
-                                                  std::chrono::duration<double>(due_s)));
+        const Clock::time_point due =
+            start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(due_s));
+        // In steps, so that a stop request is seen while waiting for a late frame.
+        while (!stopping() && Clock::now() < due) {
+          std::this_thread::sleep_until(std::min(due, Clock::now() + std::chrono::milliseconds(100)));
+        }
+        if (stopping()) break;
         const Clock::time_point read_start = Clock::now();
         Keyframe keyframe = makeKeyframe(sequence.frames[index], options, picked->takeDecoded(index));
         reading_s += secondsSince(read_start);
@@ -104,6 +113,7 @@ size_t framesLookedAt(size_t frames, const FrameSelection& selection) {
 }
 
 int run(const std::vector<std::string>& args) {
+  const StopRequest stop;  // from here on Ctrl-C still writes the outputs
   const std::string sequence_dir = args[0], output_dir = args[1];
   MapToolOptions options = parseMapToolArguments(std::vector<std::string>(args.begin() + 2, args.end()));
   // max_image_size -1 (auto) needs the backend before the first frame is read.
@@ -132,15 +142,16 @@ int run(const std::vector<std::string>& args) {
   MapOutputs outputs(output_dir, options, sequence);
   const Clock::time_point start = Clock::now();
   if (options.realtime_rate > 0) {
-    runRealtime(sequence, &picking, options, &pipeline, &outputs, &totals);
+    runRealtime(sequence, &picking, options, stop, &pipeline, &outputs, &totals);
   } else {
-    runOffline(sequence, &picking, options, &pipeline, &outputs, &totals);
+    runOffline(sequence, &picking, options, stop, &pipeline, &outputs, &totals);
   }
   totals.wall_s = secondsSince(start);
+  totals.interrupted_by = stop.signalName();
   const std::string summary = outputs.finish(pipeline, totals);
   std::cerr << "amhmvs_map: " << summary << "\n";  // also with --quiet: one line
   std::cout << "amhmvs_map: wrote " << output_dir << "\n";
-  return 0;
+  return stop.requested() ? stop.exitCode() : 0;
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include <opencv2/rgbd.hpp>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/io/atomic_file.h"
 #include "amhmvs_mapping/eval/ground_truth_depth.h"
 #include "amhmvs_mapping/eval/trajectory_error.h"
 #include "amhmvs_mapping/io/image_io.h"
@@ -250,7 +251,7 @@ int run(const std::vector<std::string>& args) {
     json.erase(json.rfind("\n}"));  // the tracker's own counts join the object
     json += ",\n  \"method\": \"" + options.method + "\",\n  \"tracker_keyframes\": " + std::to_string(keyframes) +
             ",\n  \"failed_to_align\": " + std::to_string(failures) + "\n}\n";
-    writeTextFileAtomically(options.report_path, json, "report");
+    writeFileAtomically(options.report_path, json, "report");
   }
   return 0;
 }

@@ -16,6 +16,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/simulation/realistic_capture.h"
 #include "amhmvs_mapping/simulation/synthetic_scene.h"
+#include "amhmvs_mapping/io/atomic_file.h"
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/io/mvsnet_folder.h"
 #include "amhmvs_mapping/io/pfm.h"
@@ -169,9 +170,8 @@ int run(const std::vector<std::string>& args) {
     medians.push_back(medianFinite(view.depth));
     std::fprintf(stderr, "\rrendered %d/%d views", v + 1, views);
   }
-  std::FILE* pair = std::fopen((out + "/pair.txt").c_str(), "w");
-  if (!pair) throw InputError(out + "/pair.txt: cannot write");
-  std::fprintf(pair, "%d\n", views);
+  std::string pair = std::to_string(views) + "\n";
+  char entry[64];
   for (int r = 0; r < views; ++r) {
     std::vector<std::pair<double, int>> ranked;
     for (int s = 0; s < views; ++s) {
@@ -179,11 +179,14 @@ int run(const std::vector<std::string>& args) {
     }
     std::sort(ranked.begin(), ranked.end());
     const size_t keep = std::min<size_t>(ranked.size(), 10);
-    std::fprintf(pair, "%d\n%zu", r, keep);
-    for (size_t k = 0; k < keep; ++k) std::fprintf(pair, " %d %.6f", ranked[k].second, -ranked[k].first);
-    std::fprintf(pair, "\n");
+    pair += std::to_string(r) + "\n" + std::to_string(keep);
+    for (size_t k = 0; k < keep; ++k) {
+      std::snprintf(entry, sizeof(entry), " %d %.6f", ranked[k].second, -ranked[k].first);
+      pair += entry;
+    }
+    pair += "\n";
   }
-  std::fclose(pair);
+  writeFileAtomically(out + "/pair.txt", pair, "view pairs");
   std::fprintf(stderr, "\nwrote %s (%d views, %dx%d, scene %s)\n", out.c_str(), views, o.width, o.height,
                o.scene.c_str());
   if (realism.any()) {

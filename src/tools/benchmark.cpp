@@ -58,6 +58,7 @@
 #endif
 
 #include "amhmvs_mapping/core/stopwatch.h"
+#include "amhmvs_mapping/io/atomic_file.h"
 #include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/mapping/depth_map_fuser.h"
 #include "amhmvs_mapping/mapping/fusion.h"
@@ -589,7 +590,9 @@ int main(int argc, char** argv) {
     omp_set_num_threads(omp_get_num_procs());  // the online tables use every core
 #endif
     // Written after each section: a run cut short keeps what it measured.
-    const auto save = [&] { std::ofstream(out_path) << renderTables(gpu ? device : "none (CPU only)", rows, online); };
+    const auto save = [&] {
+      writeFileAtomically(out_path, renderTables(gpu ? device : "none (CPU only)", rows, online), "benchmark tables");
+    };
     save();
     if (wants("fusion")) online += fusionTable(std::max(runs, 5));
     save();
@@ -611,7 +614,13 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  std::printf("%s", renderTables(gpu ? device : "none (CPU only)", rows, online).c_str());
-  std::ofstream(out_path) << renderTables(gpu ? device : "none (CPU only)", rows, online);
+  const std::string tables = renderTables(gpu ? device : "none (CPU only)", rows, online);
+  std::printf("%s", tables.c_str());
+  try {
+    writeFileAtomically(out_path, tables, "benchmark tables");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "amhmvs_benchmark: %s\n", e.what());
+    return 1;
+  }
   return 0;
 }

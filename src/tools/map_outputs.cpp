@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/io/atomic_file.h"
 #include "amhmvs_mapping/eval/cloud_metrics.h"
 #include "amhmvs_mapping/eval/ground_truth_depth.h"
 #include "amhmvs_mapping/eval/pose_alignment.h"
@@ -427,9 +428,7 @@ std::string MapOutputs::finish(const MappingPipeline& pipeline, const MapRunTota
   std::fflush(jsonl_);
   std::string line;
   const std::string summary = summaryJson(pipeline, totals, &line);
-  std::FILE* file = openLog(dir_ + "/summary.json");
-  std::fprintf(file, "%s\n", summary.c_str());
-  std::fclose(file);
+  writeFileAtomically(dir_ + "/summary.json", summary + "\n", "summary");
   return line;
 }
 
@@ -483,6 +482,8 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   refused.add("blurred_taken_anyway", std::to_string(totals.picking.blurred_taken_anyway));
   summary.add("keyframes_refused", refused.object());
   summary.add("keyframes_pushed", std::to_string(totals.keyframes_pushed));
+  // null for a run that read every keyframe it picked
+  summary.add("interrupted_by", totals.interrupted_by.empty() ? "null" : quoted(totals.interrupted_by));
   JsonFields kinds;
   for (const char* kind : {"new", "late", "refined", "source_only", "fused_again", "deferred_fusion"}) {
     kinds.add(kind, std::to_string(kinds_.count(kind) ? kinds_.at(kind) : 0));
@@ -635,6 +636,10 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
                 kinds_.count("fused_again") ? kinds_.at("fused_again") : 0,
                 static_cast<unsigned long long>(stats.droppedTotal()), totals.wall_s);
   *line = text;
+  if (!totals.interrupted_by.empty()) {
+    *line += "; interrupted by " + totals.interrupted_by + " after " + std::to_string(totals.keyframes_pushed) +
+             " keyframes pushed";
+  }
   if (depth_maps + late > 0) {
     std::snprintf(text, sizeof(text), ", %.0f ms per keyframe (median step %.0f ms, estimate %.0f ms, %s)",
                   1000 * totals.wall_s / (depth_maps + late), median(total_ms_), median(estimate_ms_),

@@ -30,6 +30,7 @@ struct MapRunTotals {
   size_t keyframes_pushed = 0;
   double wall_s = 0;       // first push to last output
   double reading_s = 0;    // decoding and scaling images (before push)
+  std::string interrupted_by;  // "SIGINT" / "SIGTERM" when a stop request ended the reading early
 };
 
 class MapOutputs {

@@ -2,11 +2,12 @@
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
+#include <sstream>
 
 #include <Eigen/Geometry>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/io/atomic_file.h"
 
 namespace amhmvs {
 namespace {
@@ -38,7 +39,7 @@ FrameRealismReport reportFrame(const RenderedView& view, const PinholeCamera& wr
 
 void writeRealismReport(const std::string& path, const RealismOptions& options, double frame_period_s,
                         const std::vector<FrameRealismReport>& frames) {
-  std::ofstream out(path);
+  std::ostringstream out;
   out << "# amhmvs_synthetic realism: the options, then per frame what they did. Image motion in pixels\n"
          "# through the true depth; the written pose is cams/, the true pose (middle row, mid exposure) cams_gt/.\n";
   out << "frame_period_s " << frame_period_s << "\n";
@@ -53,7 +54,7 @@ void writeRealismReport(const std::string& path, const RealismOptions& options, 
                   f.motion_blur_px);
     out << line;
   }
-  if (!out) throw InputError(path + ": cannot write");
+  writeFileAtomically(path, out.str(), "realism report");
 }
 
 std::string summarizeRealism(const std::vector<FrameRealismReport>& frames) {

@@ -11,12 +11,14 @@ when it arrives and gets its depth map late, once the second is there. With ~spa
 and the global map are checked against those points (sparse_agreement.py).
 """
 import math
+import os
 import struct
 import sys
 import threading
 import time
 import unittest
 
+import rosnode
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
@@ -320,6 +322,25 @@ class ReplayOutputs(unittest.TestCase):
         for p, floor in zip(percent, self.map_floors):
             self.assertGreaterEqual(p, floor)
         self.assertGreaterEqual(coverage, self.min_map_coverage)
+
+    def test_11_map_saved_on_shutdown(self):
+        """~save_map_on_shutdown: the node, asked to shut down as roslaunch's
+        Ctrl-C does, writes the map it last published and exits."""
+        path = rospy.get_param('~shutdown_map', '')
+        if not path:
+            return
+        node = rospy.get_param('~node', self.ns + '/mapping')
+        self.assertFalse(os.path.exists(path), path)
+        self.assertEqual(rosnode.kill_nodes([node])[1], [], 'could not ask ' + node + ' to shut down')
+        deadline = time.time() + 60  # a bound, not a guess: the node ends after the step it is in
+        while time.time() < deadline and not os.path.exists(path):  # renamed into place whole
+            time.sleep(0.2)
+        self.assertTrue(os.path.exists(path), 'no map at ' + path + ' within 60 s of the shutdown')
+        with open(path, 'rb') as f:
+            header = f.read(2000).decode('ascii', 'replace')
+        count = int([l for l in header.splitlines() if l.startswith('element vertex')][0].split()[-1])
+        rospy.loginfo('check_outputs: %s written at shutdown, %d points', path, count)
+        self.assertEqual(count, self.rec.maps[-1].width)
 
 
 if __name__ == '__main__':

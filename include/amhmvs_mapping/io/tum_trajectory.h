@@ -23,8 +23,4 @@ std::vector<StampedPose> readTumTrajectory(const std::string& path);
 // InputError when the file cannot be written.
 void writeTumTrajectory(const std::string& path, const std::vector<StampedPose>& poses, const std::string& header);
 
-// Writes `text` beside `path` and renames it onto it, so that a reader never
-// sees half a file. Throws InputError naming the path and `what`.
-void writeTextFileAtomically(const std::string& path, const std::string& text, const std::string& what);
-
 }  // namespace amhmvs

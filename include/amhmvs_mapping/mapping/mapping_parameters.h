@@ -36,6 +36,7 @@ struct NodeOptions {
   double silence_timeout = 5.0;
   double drop_warning_window = 10.0;
   std::string map_directory;
+  std::string save_map_on_shutdown;  // a map file the nodelet writes as it shuts down; empty: none
 
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;

@@ -44,6 +44,9 @@ class MappingNodelet : public nodelet::Nodelet {
   void workerLoop();
 
   bool saveMapService(amhmvs_mapping::SaveMap::Request& req, amhmvs_mapping::SaveMap::Response& res);
+  // Writes the global map to `path` (relative: under ~map_directory); the
+  // message for the log. Throws on an empty or bad path and on a failed write.
+  std::string saveMap(const std::string& path);
   bool resetService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool pauseService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool resumeService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);

@@ -41,7 +41,7 @@ TEST(TumTrajectory, NamesTheBadLine) {
   EXPECT_INPUT_ERROR(readTumTrajectory(dir.write("a.txt", "# x\n1.0 0 0 0 0 0 0\n")), "a.txt: line 2", "8 fields");
   EXPECT_INPUT_ERROR(readTumTrajectory(dir.write("b.txt", "1.0 0 0 0 0 0 0 2\n")), "b.txt: line 1", "unit length");
   EXPECT_INPUT_ERROR(readTumTrajectory(dir.write("c.txt", "1.0 0 0 zero 0 0 0 1\n")), "c.txt: line 1", "zero");
-  EXPECT_INPUT_ERROR(writeTumTrajectory(dir.file("missing/d.txt"), {}, ""), "missing/d.txt", "cannot write");
+  EXPECT_INPUT_ERROR(writeTumTrajectory(dir.file("missing/d.txt"), {}, ""), "missing/d.txt", "cannot open the trajectory for writing");
 }
 
 }  // namespace

@@ -117,7 +117,9 @@ TEST(GeometricConsistency, WithoutDepthMapsTheEstimateIsUnchanged) {
 
 // Both views of each two-view Middlebury scene photometrically, then the
 // geometric pass; view 0 against the ground truth (non-occluded pixels). One
-// job per scene gives both: its first pass is the photometric estimate.
+// job per scene gives both: its first pass is the photometric estimate with
+// the paper's defaults, held here to the public implementation's numbers
+// (its photometric depth maps, pooled over the 4 scenes).
 TEST(GeometricConsistency, GeometricPassImprovesMiddleburyOnTheCpu) {
   AMHMVS_REQUIRE_DATA(mvsnet, "mvsnet");
   AccuracyCounts photometric, geometric;
@@ -136,11 +138,17 @@ TEST(GeometricConsistency, GeometricPassImprovesMiddleburyOnTheCpu) {
         [&](int id, const DepthProblem&, const DepthMap& map) { score(&geometric, id, map); },
         [&](int id, const DepthMap& map) { score(&photometric, id, map); });
   }
-  std::printf("middlebury pooled, photometric %s %%, geometric pass %s %%\n", photometric.percentages().c_str(),
+  std::printf("middlebury pooled, photometric %s %% (public implementation 75.4 / 82.8 / 87.7), geometric pass %s %%\n",
+              photometric.percentages().c_str(),
               geometric.percentages().c_str());
   RecordProperty("photometric", photometric.percentages());
   RecordProperty("geometric", geometric.percentages());
-  for (int i = 0; i < 3; ++i) EXPECT_GT(geometric.fraction(i), photometric.fraction(i) + 0.005) << i;
+  const double public_implementation[3] = {75.4, 82.8, 87.7};
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_GE(100.0 * photometric.fraction(i), public_implementation[i]) << "photometric within "
+                                                                         << 100 * photometric.thresholds[i] << " %";
+    EXPECT_GT(geometric.fraction(i), photometric.fraction(i) + 0.005) << i;
+  }
 }
 
 }  // namespace

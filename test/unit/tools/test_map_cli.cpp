@@ -5,6 +5,10 @@
 // these settings (values in the comments) and set a little below.
 #include <gtest/gtest.h>
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -445,6 +449,82 @@ TEST(MapCli, RealismRoomBehindATrackerWithVelocity) {
   EXPECT_GT(jsonNumber(solved, "stats", "rolling_shutter_rectified_again"), 0) << solved;
   EXPECT_EQ(jsonNumber(given, "stats", "rolling_shutter_rectified_again"), 0) << given;
 
+}
+
+// Runs amhmvs_map with `arguments`, sends it `signal` as soon as its output
+// holds `trigger` (a result line says what the program has done, so the
+// signal follows its progress, not a clock), and returns its exit code and
+// output.
+CommandResult interruptWhenPrinted(const std::string& arguments, const std::string& trigger, int signal) {
+  int pipe_fds[2];
+  if (::pipe(pipe_fds) != 0) return {-1, "pipe failed"};
+  const std::string command = "exec " + std::string(AMHMVS_TOOLS_DIR) + "/amhmvs_map " + arguments + " 2>&1";
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::dup2(pipe_fds[1], STDOUT_FILENO);
+    ::close(pipe_fds[0]);
+    ::close(pipe_fds[1]);
+    ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  ::close(pipe_fds[1]);
+  CommandResult result{-1, ""};
+  bool signalled = false;
+  char buffer[4096];
+  for (ssize_t n; (n = ::read(pipe_fds[0], buffer, sizeof(buffer))) > 0;) {
+    result.output.append(buffer, n);
+    if (!signalled && result.output.find(trigger) != std::string::npos) {
+      ::kill(child, signal);
+      signalled = true;
+    }
+  }
+  ::close(pipe_fds[0]);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  if (!signalled) result.output += "\n(test: '" + trigger + "' never came, no signal sent)";
+  return result;
+}
+
+// Ctrl-C (or SIGTERM) mid-run: no more frames are read, the keyframes in the
+// pipeline are finished, and the map, the poses and the summary are written
+// whole and agree with each other; exit 130 / 143.
+TEST_F(MapCliRoom, InterruptedRunWritesTheMapAndSummaryOfWhatItDid) {
+  AMHMVS_REQUIRE_DECODER();
+  const std::string options = " --backend cpu --max_image_size 160 --iterations 3 --num_sources 2 --write_clouds=0 "
+                              "--write_depth=0";
+  struct Case {
+    int signal;
+    const char* name;
+    int exit_code;
+    const char* mode;
+    const char* trigger;
+  };
+  // Realtime at 0.5x: frames come 1 s apart; the stop comes when the first
+  // keyframe is in the map, while the feeder waits for the next frame.
+  // Offline: at the first result, while the next keyframes are estimated.
+  for (const Case& c : {Case{SIGINT, "SIGINT", 130, " --realtime 0.5", ", fused "},
+                        Case{SIGTERM, "SIGTERM", 143, "", "] keyframe "}}) {
+    test::TempDir out;
+    const CommandResult r = interruptWhenPrinted(room() + " " + out.path() + options + c.mode, c.trigger, c.signal);
+    ASSERT_EQ(r.exit_code, c.exit_code) << c.name << "\n" << r.output;
+    EXPECT_NE(r.output.find("interrupted by " + std::string(c.name)), std::string::npos) << r.output;
+    const std::string summary = readText(out.file("summary.json"));
+    EXPECT_NE(summary.find("\"interrupted_by\": \"" + std::string(c.name) + "\""), std::string::npos) << summary;
+    EXPECT_EQ(jsonNumber(summary, "", "keyframes_picked"), 6) << summary;
+    EXPECT_LT(jsonNumber(summary, "", "keyframes_pushed"), 6) << c.name << ": stopped before the end\n" << summary;
+    const PointCloud map = readPly(out.file("map.ply"));
+    EXPECT_EQ(static_cast<double>(map.size()), jsonNumber(summary, "map", "points")) << summary;
+    EXPECT_LE(static_cast<double>(readTumTrajectory(out.file("keyframe_poses.txt")).size()),
+              jsonNumber(summary, "", "keyframes_pushed"))
+        << summary;
+    if (c.signal == SIGINT) EXPECT_GT(map.size(), 0u) << "a keyframe was fused before the stop\n" << summary;
+  }
+  // A whole run says it was not interrupted.
+  test::TempDir out;
+  const CommandResult r = runTool("amhmvs_map", room() + " " + out.path() + options);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(readText(out.file("summary.json")).find("\"interrupted_by\": null"), std::string::npos);
 }
 
 // The written depth is NaN exactly where the written confidence is below

@@ -1,7 +1,9 @@
 // Accuracy on the real data with the paper's defaults, on the CPU backend,
 // against the public implementation's numbers (its photometric depth maps,
 // 3 iterations, measured with the same metrics). The GPU backend is held to
-// the same floors by test/gpu/gpu_tests.cpp on the GPU machine.
+// the same floors by test/gpu/gpu_tests.cpp on the GPU machine. Middlebury's
+// floors are checked by GeometricConsistency.GeometricPassImprovesMiddleburyOnTheCpu
+// (test/unit/mvs), whose photometric pass is the same estimate.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -19,28 +21,6 @@ void expectAtLeast(const AccuracyCounts& counts, const double floors[3], const c
     EXPECT_GE(100.0 * counts.fraction(i), floors[i])
         << what << " within " << 100 * counts.thresholds[i] << " %";
   }
-}
-
-// Non-occluded ground-truth pixels of the 4 two-view scenes, pooled.
-TEST(RealData, MiddleburyTwoViewAccuracyAtLeastPublicImplementation) {
-  AMHMVS_REQUIRE_DATA(mvsnet, "mvsnet");
-  const double floors[3] = {75.4, 82.8, 87.7};
-  AccuracyCounts pooled;
-  for (const char* scene : {"Adirondack", "Motorcycle", "Piano", "Playtable"}) {
-    const Scene input = readInputFolder(mvsnet + "/middlebury2014_" + scene, 1);
-    const OwnedDepthProblem owned = makeDepthProblem(input, 0, ProblemOptions());
-    const DepthMap map = DepthEstimator(PatchMatchOptions(), Backend::kCpu).estimate(owned.problem);
-    const MiddleburyGroundTruth gt =
-        readMiddleburyGroundTruth(test::dataDir() + "/middlebury2014/" + scene);
-    const AccuracyCounts counts = denseDepthAccuracy(map.depth, gt.depth, &gt.nonoccluded);
-    std::printf("middlebury %-10s %s %%\n", scene, counts.percentages().c_str());
-    RecordProperty(scene, counts.percentages());
-    pooled.merge(counts);
-  }
-  std::printf("middlebury pooled     %s %% (public implementation 75.4 / 82.8 / 87.7)\n",
-              pooled.percentages().c_str());
-  RecordProperty("pooled", pooled.percentages());
-  expectAtLeast(pooled, floors, "middlebury pooled");
 }
 
 // Every observation of the triangulated SIFT points by the 11 views.
