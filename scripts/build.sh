@@ -5,8 +5,9 @@
 # run) for sm_90 only: a quarter of the time of the five targets a release
 # build of the package makes (measured: cuda_backend.cu 75 against 273 s).
 # AMHMVS_CUDA_ARCHITECTURES sets the GPU targets (CMake syntax);
-# AMHMVS_WITH_CUDA=OFF makes a CPU-only build. The demo, the fast tier and the
-# test command all build through here, so they share one configuration.
+# AMHMVS_WITH_CUDA=OFF makes a CPU-only build (the demo asks for one in a new
+# folder when no GPU is visible). The demo, the fast tier and the test command
+# all build through here, so they share one configuration.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 # Debian's catkin and pluginlib call python3 from PATH: it must be the

@@ -47,6 +47,13 @@ if [ "$skip_build" = false ] || [ ! -x "$bin/amhmvs_mapping_node" ]; then
   "$here/scripts/install_dependencies.sh" --demo
   # Only what the demo runs: the node and nodelet, the renderer of its
   # sequence (the tests, benchmarks and other tools are the test command's).
+  # A new build folder on a machine without a visible GPU is configured
+  # without CUDA (it would not run; a third of the build's CPU time); the
+  # test command reuses that build. AMHMVS_WITH_CUDA=ON keeps CUDA.
+  if [ -z "${AMHMVS_WITH_CUDA:-}" ] && [ ! -f "$build/CMakeCache.txt" ] && ! nvidia-smi -L > /dev/null 2>&1; then
+    export AMHMVS_WITH_CUDA=OFF
+    echo "demo.sh: no GPU visible: a CPU-only build (AMHMVS_WITH_CUDA=ON bash scripts/build.sh adds CUDA later)"
+  fi
   AMHMVS_MAKE_TARGETS="${AMHMVS_MAKE_TARGETS:-amhmvs_mapping_node amhmvs_mapping_nodelet amhmvs_synthetic amhmvs_mapping_generate_messages_py amhmvs_mapping_gencfg}" \
     "$here/scripts/build.sh"
 fi
