@@ -138,6 +138,24 @@ size_t MappingInputs::watch(const std::string& name, std::function<uint32_t()> p
 void MappingInputs::noteArrival(size_t topic) {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   topics_[topic].last_arrival = ros::WallTime::now();
+  ++topics_[topic].messages;
+}
+
+std::vector<std::pair<std::string, uint64_t>> MappingInputs::messagesReceived() const {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  std::vector<std::pair<std::string, uint64_t>> counts;
+  for (const Topic& topic : topics_) counts.push_back({topic.name, topic.messages});
+  return counts;
+}
+
+uint64_t MappingInputs::imagesNotSynchronised() const {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  if (!image_filter_ || topics_.empty()) return 0;  // keyframe mode: one message is one frame
+  // topics_[0] is the image filter (the first watched); a frame is counted
+  // once it leaves the synchroniser (and, in tf mode, the transform's wait).
+  const uint64_t images = topics_[0].messages;
+  const uint64_t frames = stats_.frames_received + stats_.dropped_missing_tf;
+  return images > frames ? images - frames : 0;
 }
 
 std::vector<std::string> MappingInputs::silenceProblems(double silence_s) const {
@@ -192,7 +210,10 @@ bool MappingInputs::inputEnded(double silence_s) const {
 void MappingInputs::noteSynchronised() {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   last_synchronised_ = ros::WallTime::now();
-  if (keyframe_sub_) topics_[0].last_arrival = last_synchronised_;  // keyframe mode: the one topic
+  if (keyframe_sub_) {  // keyframe mode: the one topic
+    topics_[0].last_arrival = last_synchronised_;
+    ++topics_[0].messages;
+  }
 }
 
 void MappingInputs::count(uint64_t InputStats::*counter) {

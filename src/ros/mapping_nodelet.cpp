@@ -261,6 +261,10 @@ void MappingNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   last_rate_time_ = now;
   last_rate_frames_ = input.frames_received;
   for (const InputStatField& field : inputStatFields()) status.add(field.name, input.*field.value);
+  if (inputs_) {
+    for (const auto& [topic, messages] : inputs_->messagesReceived()) status.add("received on " + topic, messages);
+    status.add("images_not_synchronised", inputs_->imagesNotSynchronised());
+  }
   for (const amhmvs::PipelineStatField& field : amhmvs::pipelineStatFields())
     status.add(field.name, pipeline.*field.value);
 }

@@ -254,6 +254,13 @@ class ReplayOutputs(unittest.TestCase):
         self.assertIn('dropped: queue_full', diag)
         self.assertEqual({k: v for k, v in diag.items() if k.startswith('dropped') and v != '0'}, {})
         self.assertGreater(int(diag.get('map voxels', '0')), 0)
+        # Every message that reached a subscriber is counted, and every image
+        # became a frame (none left in the synchroniser or dropped unseen).
+        received = {k[len('received on '):]: int(v) for k, v in diag.items() if k.startswith('received on ')}
+        self.assertTrue(received, diag)
+        for topic, count in received.items():
+            self.assertEqual(count, self.expected_frames, (topic, received))
+        self.assertEqual(diag.get('images_not_synchronised'), '0')
 
     def cameras(self):
         """view id (order of the image stamps) -> Camera of each depth image."""

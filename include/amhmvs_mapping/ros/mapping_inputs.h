@@ -107,6 +107,13 @@ class MappingInputs {
   // Every input topic delivered once and none for silence_s: the input ended
   // (a bag finished, the camera stopped); silenceProblems() then reports nothing.
   bool inputEnded(double silence_s) const;
+  // Messages that reached each input topic's subscriber (before any
+  // synchronisation), by resolved topic name, in subscription order.
+  std::vector<std::pair<std::string, uint64_t>> messagesReceived() const;
+  // Images that reached the subscriber but became no frame (pose, odometry
+  // and tf modes): never matched by the synchroniser (or still held by it),
+  // or dropped waiting for their transform (counted under missing_tf too).
+  uint64_t imagesNotSynchronised() const;
 
  private:
   using PoseSync = message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::CameraInfo,
@@ -150,6 +157,7 @@ class MappingInputs {
     std::string name;
     std::function<uint32_t()> publishers;
     ros::WallTime last_arrival;  // zero: never
+    uint64_t messages = 0;       // arrivals so far
   };
   // Registers a topic (constructor); returns its index for noteArrival().
   size_t watch(const std::string& name, std::function<uint32_t()> publishers);
