@@ -5,6 +5,8 @@
 
 #include <cmath>
 
+#include <dynamic_reconfigure/Config.h>
+
 #include "amhmvs_mapping/ros/mapping_tunables.h"
 
 namespace amhmvs_mapping {
@@ -26,6 +28,29 @@ TEST(MappingTunables, DefaultsAreTheParameterTables) {
   EXPECT_EQ(from_table.min_points_per_voxel, cfg.min_points_per_voxel);
   EXPECT_EQ(cfg.max_sources, 4);  // the product's default, not the component's 8
   EXPECT_DOUBLE_EQ(cfg.max_cost, 0.6);
+}
+
+// Every value a tunable's range offers is one the mapper accepts: each
+// tunable at both ends of its range (cfg/MappingTunables.cfg), the others at
+// their defaults, goes through the parameter table and validates. A range
+// wider than the option's checks would make rqt_reconfigure offer values the
+// nodelet then refuses.
+TEST(MappingTunables, EveryValueOfTheRangesIsAccepted) {
+  const MappingConfig defaults;
+  const MappingTunablesConfig start = tunablesFrom(defaults);
+  const auto& descriptions = MappingTunablesConfig::__getParamDescriptions__();
+  ASSERT_EQ(descriptions.size(), 11u);
+  for (const auto& description : descriptions) {
+    for (const bool at_max : {false, true}) {
+      dynamic_reconfigure::Config message;
+      (at_max ? MappingTunablesConfig::__getMax__() : MappingTunablesConfig::__getMin__()).__toMessage__(message);
+      MappingTunablesConfig tunables = start;
+      ASSERT_TRUE(description->fromMessage(message, tunables)) << description->name;
+      MappingConfig config = defaults;
+      applyTunables(tunables, &config);
+      EXPECT_EQ(config.validate(), "") << description->name << " at its " << (at_max ? "maximum" : "minimum");
+    }
+  }
 }
 
 TEST(MappingTunables, ChangesReachTheirParameters) {
