@@ -19,6 +19,7 @@ folder and the options (no wall-clock time), so equal inputs give equal bags.
 usage: dense_folder_to_bag.py DENSE_DIR OUTPUT.bag [--period 0.5] [--start 1700000000]
 """
 import argparse
+import contextlib
 import os
 import sys
 
@@ -33,6 +34,22 @@ from tf2_msgs.msg import TFMessage
 
 FIXED_FRAME = "world"
 OPTICAL_FRAME = "camera_optical"
+
+
+@contextlib.contextmanager
+def bag_written_atomically(path):
+    """A rosbag.Bag that writes to a hidden file beside `path` and is renamed
+    onto it once closed: an interrupted or failed run leaves no half bag under
+    the name (and the previous bag, if any, whole)."""
+    folder, name = os.path.split(os.path.abspath(path))
+    partial = os.path.join(folder, '.%s.%d.tmp' % (name, os.getpid()))
+    try:
+        with rosbag.Bag(partial, "w") as bag:
+            yield bag
+        os.replace(partial, path)
+    finally:
+        if os.path.exists(partial):
+            os.remove(partial)
 
 
 def read_cam(path):
@@ -168,7 +185,7 @@ def main():
     with_depth = os.path.isdir(depth_dir)
     velocities_path = os.path.join(args.dense_dir, "velocities.txt")
     velocities = read_velocities(velocities_path) if os.path.isfile(velocities_path) else None
-    with rosbag.Bag(args.bag, "w") as bag:
+    with bag_written_atomically(args.bag) as bag:
         for index, name in enumerate(names):
             image_path = os.path.join(args.dense_dir, "images", name + ".png")
             bgr = cv2.imread(image_path, cv2.IMREAD_COLOR)

@@ -22,10 +22,9 @@ import sys
 
 import cv2
 import numpy as np
-import rosbag
 import rospy
 
-from dense_folder_to_bag import OPTICAL_FRAME, camera_info_msg, image_msg, pose_and_tf
+from dense_folder_to_bag import OPTICAL_FRAME, bag_written_atomically, camera_info_msg, image_msg, pose_and_tf
 
 
 def reprojected_depth(depth_mm, depth_k, color_k, offset, width, height):
@@ -80,7 +79,7 @@ def main():
     # scaled about pixel centres, as the core does: c' = (c + 0.5) s - 0.5
     color_k = np.array([[fx * s, 0, (cx + 0.5) * s - 0.5], [0, fy * s, (cy + 0.5) * s - 0.5], [0, 0, 1]])
     numbers = frame_numbers(args.folder)[args.first::args.stride][:args.count]
-    with rosbag.Bag(args.bag, "w") as bag:
+    with bag_written_atomically(args.bag) as bag:
         for index, number in enumerate(numbers):
             prefix = os.path.join(args.folder, f"frame-{number:06d}")
             bgr = cv2.imread(prefix + ".color.jpg", cv2.IMREAD_COLOR)
