@@ -79,8 +79,6 @@ struct WindowStorage<PaperWindow> {
     return {samples + thread};
   }
 };
-template <>
-struct WindowStorage<RollingShutterWindow<PaperWindow>> : WindowStorage<PaperWindow> {};
 
 template <class Window>
 __global__ void __launch_bounds__(kBlockThreads, AMHMVS_UPDATE_MIN_BLOCKS)

@@ -389,33 +389,4 @@ void writeMvsnetCam(const std::string& path, const PinholeCamera& camera, double
   writeFileAtomically(path, out.str(), "camera file");
 }
 
-std::map<int, CameraVelocity> readMvsnetVelocities(const std::string& path) {
-  std::map<int, CameraVelocity> velocities;
-  for (const internal::TextLine& line : internal::readTextLines(path)) {
-    internal::expectTokens(path, line, 7, "id wx wy wz vx vy vz");
-    double id = internal::numberAt(path, line, 0);
-    if (id != std::floor(id) || id < 0 || id > 1e8) internal::failAt(path, line.number, "view id must be an integer >= 0");
-    CameraVelocity v;
-    for (int k = 0; k < 3; ++k) {
-      v.angular[k] = internal::numberAt(path, line, 1 + k);
-      v.linear[k] = internal::numberAt(path, line, 4 + k);
-    }
-    if (!velocities.emplace(static_cast<int>(id), v).second) {
-      internal::failAt(path, line.number, "view " + line.tokens[0] + " is listed twice");
-    }
-  }
-  return velocities;
-}
-
-void writeMvsnetVelocities(const std::string& path, const std::map<int, CameraVelocity>& velocities) {
-  std::ostringstream out;
-  out.precision(9);
-  out << "# id, angular velocity (rad/s), linear velocity (m/s); camera frame, at the view's stamp\n";
-  for (const auto& [id, v] : velocities) {
-    out << id << ' ' << v.angular.x() << ' ' << v.angular.y() << ' ' << v.angular.z() << ' ' << v.linear.x() << ' '
-        << v.linear.y() << ' ' << v.linear.z() << '\n';
-  }
-  writeFileAtomically(path, out.str(), "velocity file");
-}
-
 }  // namespace amhmvs

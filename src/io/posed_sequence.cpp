@@ -199,21 +199,7 @@ PosedSequence readPosedSequence(const std::string& dir, const PosedSequenceOptio
 
 PosedSequence readMvsnetSequence(const std::string& dir, const PosedSequenceOptions& options) {
   PosedSequence sequence = fromScene(readMvsnetDenseFolder(dir), "mvsnet", dir, options.frame_period_s);
-  const std::string velocity_file = dir + "/velocities.txt";
-  const bool has_velocities = fs::exists(velocity_file);
-  std::map<int, CameraVelocity> velocities =
-      has_velocities ? readMvsnetVelocities(velocity_file) : std::map<int, CameraVelocity>();
   for (PosedFrame& frame : sequence.frames) {
-    // All views or none: a view without its velocity would be rectified from poses instead.
-    const auto velocity = velocities.find(static_cast<int>(frame.id));
-    if (has_velocities && velocity == velocities.end()) {
-      throw InputError(velocity_file + ": no line for view " + std::to_string(frame.id) +
-                       " (give every view's velocity, or remove the file)");
-    }
-    if (has_velocities) {
-      frame.velocity = velocity->second;
-      velocities.erase(velocity);
-    }
     char name[32];
     std::snprintf(name, sizeof(name), "%08lld", static_cast<long long>(frame.id));
     const std::string truth = dir + "/depth_gt/" + name + ".pfm";
@@ -227,10 +213,6 @@ PosedSequence readMvsnetSequence(const std::string& dir, const PosedSequenceOpti
       camera.height = frame.camera.height;
       frame.true_camera = camera;
     }
-  }
-  if (!velocities.empty()) {
-    throw InputError(velocity_file + ": view " + std::to_string(velocities.begin()->first) +
-                     " has no image and camera in this folder");
   }
   return sequence;
 }

@@ -64,7 +64,6 @@ std::string Keyframe::validate() const {
   for (size_t i = 0; why.tellp() == 0 && i < sparse_points.size(); ++i) {
     if (!sparse_points[i].allFinite()) why << "sparse point " << i << " is not finite";
   }
-  if (why.tellp() == 0 && velocity && !velocity->finite()) why << "velocity is not finite";
   return why.str();
 }
 
@@ -296,10 +295,6 @@ void KeyframeStore::replaceImage(int64_t id, ImageU8 image) {
   keyframe.image = std::move(image);
   if (keyframe.image.channels != 1) entry.stored.gray_image = toGray(keyframe.image);
   ++revision_;
-}
-
-void KeyframeStore::setMotion(int64_t id, const ViewMotion& motion) {
-  find(id, "set the motion of").stored.motion = motion;
 }
 
 void KeyframeStore::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world) {

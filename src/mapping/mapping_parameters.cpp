@@ -308,24 +308,6 @@ const Table<RollingShutterOptions>& rollingShutterTable() {
       withAlias(advanced(numberField("max_interval_s", &O::max_interval_s,
                                      "the keyframe before must be at most this long before to tell the motion")),
                 "rolling_shutter_max_interval_s"),
-      withAlias(advanced(switchField<O>("use_tracker_velocity", &O::use_tracker_velocity,
-                                        "the tracker's velocity (odometry twist; MVSNet velocities.txt) as the "
-                                        "camera's")),
-                "rolling_shutter_velocity"),
-      withAlias(advanced(switchField<O>("translation", &O::translation,
-                                        "with the velocity: each row's camera centre from its linear velocity")),
-                "rolling_shutter_translation"),
-      withAlias(advanced(switchField<O>("from_adjusted_poses", &O::from_adjusted_poses,
-                                        "with the keyframe bundle adjustment: rectify again with the adjusted "
-                                        "poses' turn rate")),
-                "rolling_shutter_from_adjusted_poses"),
-      withAlias(advanced(numberField("tracker_velocity_sigma_rad_s", &O::tracker_velocity_sigma_rad_s,
-                                     "the tracker's turn-rate noise; > 0 with the m/s one: the keyframe bundle "
-                                     "adjustment solves the velocity too")),
-                "rolling_shutter_velocity_sigma_rad_s"),
-      withAlias(advanced(numberField("tracker_velocity_sigma_m_s", &O::tracker_velocity_sigma_m_s,
-                                     "... and its linear-velocity noise, m/s")),
-                "rolling_shutter_velocity_sigma_m_s"),
   };
   return table;
 }

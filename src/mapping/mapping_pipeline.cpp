@@ -80,8 +80,6 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"keyframes_evicted_without_depth", &PipelineStats::keyframes_evicted_without_depth},
       {"rolling_shutter_rectified", &PipelineStats::rolling_shutter_rectified},
       {"rolling_shutter_not_rectified", &PipelineStats::rolling_shutter_not_rectified},
-      {"rolling_shutter_from_tracker_velocity", &PipelineStats::rolling_shutter_from_tracker_velocity},
-      {"rolling_shutter_rectified_again", &PipelineStats::rolling_shutter_rectified_again},
       {"map voxels", &PipelineStats::map_voxels},
   };
   return fields;
@@ -171,12 +169,6 @@ void MappingPipeline::init(EstimateFunction primary, EstimateFunction fallback, 
     return this->publish(reference, views, confidence, calibration);
   };
   mapper_.reset(new OnlineMapper(options_.mapper, estimate, fuse, publish));
-  // A keyframe's image rectified again: its old pixels leave the estimators
-  // (image keys are keyframe ids), as for an evicted keyframe.
-  mapper_->setForgetImageFunction([this](int64_t id) {
-    if (estimator_) estimator_->forget(id);
-    if (cpu_estimator_) cpu_estimator_->forget(id);
-  });
   if (options_.mapper.pose_refinement.enabled && !PoseRefiner::available())
     report(LogLevel::kWarn, "pose_refinement", std::string(PoseRefiner::unavailableMessage()) +
                                                    ": the sources' poses are the tracker's, unrefined");
@@ -663,8 +655,6 @@ std::vector<PipelineOutput> MappingPipeline::step() {
   stats_.keyframes_evicted_without_depth = mapper_->evictedWithoutDepth();
   stats_.rolling_shutter_rectified = mapper_->rollingShutterRectified();
   stats_.rolling_shutter_not_rectified = mapper_->rollingShutterNotRectified();
-  stats_.rolling_shutter_from_tracker_velocity = mapper_->rollingShutterFromTrackerVelocity();
-  stats_.rolling_shutter_rectified_again = mapper_->rollingShutterRectifiedAgain();
   stats_.map_voxels = mapper_->mapVoxelCount();
   stats_.map_revision = mapper_->mapRevision();
   {

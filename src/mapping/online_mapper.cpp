@@ -36,11 +36,6 @@ FusionView fusionView(int local_id, const StoredKeyframe& stored) {
 
 using Clock = std::chrono::steady_clock;
 
-// The keyframe bundle adjustment runs (rolling-shutter images may be rectified again).
-bool adjustsKeyframes(const PoseRefinementOptions& options) {
-  return options.enabled && options.keyframe_bundle_adjustment;
-}
-
 // Total score of the selected sources (they come first among the candidates).
 double selectionScore(const SourceSelection& selection) {
   double score = 0;
@@ -108,7 +103,7 @@ OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction 
   if (!problems.empty()) throw InputError("online mapper options:\n" + problems);
   if (!estimate_) throw InputError("online mapper: no estimate function");
   if (options.pose_refinement.enabled) pose_refiner_.reset(new PoseRefiner(options.pose_refinement));
-  rolling_shutter_.setOptions(options.rolling_shutter, adjustsKeyframes(options.pose_refinement));
+  rolling_shutter_.setOptions(options.rolling_shutter);
 }
 
 KeyframeResult OnlineMapper::process(Keyframe keyframe, bool next_follows) {
@@ -163,29 +158,6 @@ std::vector<int64_t> OnlineMapper::addSourceView(Keyframe keyframe) {
   rolling_shutter_.rectifyStored(id, estimates_started_, &store_);
   markSourceOnly(id, &result);
   return result.evicted;
-}
-
-bool OnlineMapper::reestimatesLeft(int64_t id) const {
-  const auto record = records_.find(id);
-  return record == records_.end() ||
-         record->second.pose_reestimates < options_.pose_refinement.max_pose_reestimates;
-}
-
-void OnlineMapper::planRectification(const KeyframeBundleAdjustmentResult& adjusted) {
-  const auto reestimates_left = [this](int64_t id) { return reestimatesLeft(id); };
-  rolling_shutter_.planFromPoses(adjusted.poses, store_, reestimates_left);
-  rolling_shutter_.planFromVelocities(adjusted.velocity_corrections, store_, reestimates_left);
-}
-
-void OnlineMapper::rectifyDueAgain() {
-  const double readout_s = options_.rolling_shutter.readout_s;
-  for (const ImageRectifiedAgain& again : rolling_shutter_.rectifyDueAgain(&store_)) {
-    if (forget_image_) forget_image_(again.id);
-    if (pose_refiner_)
-      pose_refiner_->moveFeatures(again.id, [&](const Eigen::Vector2d& pixel) {
-        return rectifiedAgain(pixel, again.camera, again.used, again.wanted, readout_s);
-      });
-  }
 }
 
 bool OnlineMapper::fuseDeferred(KeyframeResult* result) {
@@ -251,7 +223,6 @@ bool OnlineMapper::estimateLate(KeyframeResult* result) {
 
 bool OnlineMapper::refine(KeyframeResult* result) {
   fuseDeferredNow();  // first: it may evict what a refinement would read
-  rectifyDueAgain();  // nothing reads the images now
   if (options_.refinement.max_refinements == 0) return fuseDeferred(result);
   const Clock::time_point start = Clock::now();
   for (auto& [id, record] : records_) {
@@ -336,12 +307,10 @@ void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult
   // Keyframe ids as image keys: a GPU estimator uploads each keyframe once
   // (the pipeline forgets a key when its keyframe leaves the store).
   problem.reference_key = id;
-  problem.reference_motion = store_.entry(id).motion;
   for (int64_t source : sources) {
     problem.source_cameras.push_back(store_.keyframe(source).camera);
     problem.source_images.push_back(store_.entry(source).grayImage());
     problem.source_keys.push_back(source);
-    problem.source_motions.push_back(store_.entry(source).motion);
   }
   problem.depth_min = result->depth_range.min;
   problem.depth_max = result->depth_range.max;
@@ -375,8 +344,6 @@ void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult
   record.stereo_sources.clear();
   for (size_t s = 0; s < sources.size() && s < problem.source_cameras.size(); ++s)
     record.stereo_sources[sources[s]] = problem.source_cameras[s];
-  record.image_revisions = {{id, rolling_shutter_.imageRevision(id)}};
-  for (int64_t source : sources) record.image_revisions[source] = rolling_shutter_.imageRevision(source);
   if (result->refinement_rejected) {
     result->waiting_for_fusion = waiting_.size();
     return;
@@ -432,7 +399,6 @@ OnlineMapper::Forgotten OnlineMapper::forgetKeyframe(int64_t id) {
   if (pose_refiner_) pose_refiner_->forget(id);
   refined_poses_.forget(id);
   map_poses_.erase(id);  // its points stay in the map where they are
-  rolling_shutter_.forget(id);
   const auto without_depth = std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id);
   if (without_depth != waiting_for_sources_.end()) {
     waiting_for_sources_.erase(without_depth);
@@ -678,13 +644,8 @@ void OnlineMapper::correctMapPoses() {
 
 bool OnlineMapper::adjustKeyframePoses(int64_t id, DepthProblem* problem) {
   std::map<int64_t, PinholeCamera> cameras;
-  std::map<int64_t, ViewMotion> motions;
-  for (int64_t stored : store_.ids()) {
-    cameras[stored] = store_.keyframe(stored).camera;
-    if (store_.entry(stored).motion.rolling()) motions[stored] = store_.entry(stored).motion;
-  }
-  const KeyframeBundleAdjustmentResult adjusted =
-      pose_refiner_->adjustKeyframes(cameras, motions, rolling_shutter_.velocityPriors(store_));
+  for (int64_t stored : store_.ids()) cameras[stored] = store_.keyframe(stored).camera;
+  const KeyframeBundleAdjustmentResult adjusted = pose_refiner_->adjustKeyframes(cameras);
   if (!adjusted.solved) return false;
   // Every refined pair of two adjusted keyframes at their adjusted relative pose.
   std::vector<std::pair<int64_t, int64_t>> pairs;
@@ -701,7 +662,6 @@ bool OnlineMapper::adjustKeyframePoses(int64_t id, DepthProblem* problem) {
     refined_poses_.place(id, problem->reference_camera, problem->source_keys[s], &problem->source_cameras[s]);
   map_poses_ = adjusted.poses;
   placeMapPoses();
-  planRectification(adjusted);
   return true;
 }
 
@@ -715,8 +675,6 @@ bool OnlineMapper::stereoPosesMoved(int64_t id, const KeyframeRecord& record) co
   if (!options.enabled || !options.keyframe_bundle_adjustment || record.stereo_sources.empty() ||
       record.pose_reestimates >= options.max_pose_reestimates || !store_.contains(id))
     return false;
-  for (const auto& [key, revision] : record.image_revisions)
-    if (store_.contains(key) && rolling_shutter_.imageRevision(key) != revision) return true;  // rectified again since
   for (const auto& [source, used] : record.stereo_sources) {
     PinholeCamera now = used;
     if (!store_.contains(source) || !refined_poses_.place(id, record.stereo_reference, source, &now)) continue;
@@ -842,7 +800,7 @@ void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
   } else if (!pose_refiner_ || pose_refiner_->options() != options.pose_refinement) {
     pose_refiner_.reset(new PoseRefiner(options.pose_refinement));  // features of other settings: detected again
   }
-  rolling_shutter_.setOptions(kept.rolling_shutter, adjustsKeyframes(kept.pose_refinement));
+  rolling_shutter_.setOptions(kept.rolling_shutter);
   options_ = kept;
 }
 

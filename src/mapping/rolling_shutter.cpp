@@ -14,10 +14,6 @@ std::string RollingShutterOptions::validate() const {
   if (!(readout_s >= 0 && readout_s <= 1)) out << "readout_s must be in [0, 1] seconds, got " << readout_s << "\n";
   if (!(max_interval_s > 0 && std::isfinite(max_interval_s)))
     out << "max_interval_s must be positive and finite, got " << max_interval_s << "\n";
-  if (!(tracker_velocity_sigma_rad_s >= 0 && std::isfinite(tracker_velocity_sigma_rad_s)))
-    out << "tracker_velocity_sigma_rad_s must be >= 0 and finite, got " << tracker_velocity_sigma_rad_s << "\n";
-  if (!(tracker_velocity_sigma_m_s >= 0 && std::isfinite(tracker_velocity_sigma_m_s)))
-    out << "tracker_velocity_sigma_m_s must be >= 0 and finite, got " << tracker_velocity_sigma_m_s << "\n";
   return out.str();
 }
 
@@ -81,17 +77,6 @@ ImageU8 rectifyRollingShutter(const ImageU8& image, const PinholeCamera& camera,
     *su = camera.fx * seen.x() / seen.z() + camera.cx;
   };
   return remapBilinear(image, rolling_shutter_position, RemapBorder::kClamp);
-}
-
-Eigen::Vector2d rectifiedAgain(const Eigen::Vector2d& pixel, const PinholeCamera& camera, const Eigen::Vector3d& used,
-                               const Eigen::Vector3d& wanted, double readout_s) {
-  if (readout_s <= 0 || camera.height < 2) return pixel;
-  // The rectification with `used` took this pixel from `seen`, exposed in
-  // `row`; the one with `wanted` shows `seen` at Exp(+w_wanted t(row)) seen.
-  double row = 0;
-  const Eigen::Vector3d seen =
-      TurningRows(camera, used, readout_s).seen(camera.backproject(pixel.x(), pixel.y(), 1.0), pixel.y(), &row);
-  return camera.project(TurningRows(camera, -wanted, readout_s).turned(seen, row));
 }
 
 }  // namespace amhmvs

@@ -49,8 +49,6 @@ ScaledProblem downsampledProblem(const DepthProblem& problem, int shift, ScaledI
   }
   p.depth_min = problem.depth_min;
   p.depth_max = problem.depth_max;
-  p.reference_motion = problem.reference_motion;
-  p.source_motions = problem.source_motions;
   return out;
 }
 

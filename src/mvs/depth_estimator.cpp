@@ -50,17 +50,6 @@ std::string DepthProblem::validate() const {
         << " source views (give none or one per source)\n";
   }
   if (source_cameras.empty()) why << "no source views: at least 1 is needed\n";
-  if (!source_motions.empty() && source_motions.size() != source_cameras.size()) {
-    why << source_motions.size() << " source motions for " << source_cameras.size()
-        << " source views (give none or one per source)\n";
-  }
-  const auto check_motion = [&](const std::string& label, const ViewMotion& motion) {
-    if (!(motion.velocity.allFinite() && motion.readout_s >= 0 && motion.readout_s <= 1)) {
-      why << label << ": rolling-shutter motion must have a finite velocity and a readout in [0, 1] s\n";
-    }
-  };
-  check_motion("reference view", reference_motion);
-  for (size_t i = 0; i < source_motions.size(); ++i) check_motion("source view " + std::to_string(i), source_motions[i]);
   const auto check_key = [&](const std::string& label, int64_t key) {
     if (key != kNoImageKey && key <= mvs::kScaledImageKeyBase) {
       why << label << ": image key " << key << " is reserved (keys must be above " << mvs::kScaledImageKeyBase
@@ -158,31 +147,6 @@ std::vector<float> concatenateSourceDepths(const DepthProblem& problem, PatchMat
   return all;
 }
 
-Vec3 toVec3(const Eigen::Vector3d& v) {
-  return {static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z())};
-}
-
-// The rolling-shutter terms of one source (RowMotion in matching_cost.h);
-// rolling is false when neither view moves during a readout.
-RowMotion rowMotion(const DepthProblem& problem, int source, const Eigen::Matrix3d& reference_to_source) {
-  RowMotion m{};
-  const ViewMotion none;
-  const ViewMotion& ref = problem.reference_motion;
-  const ViewMotion& src = problem.source_motions.empty() ? none : problem.source_motions[source];
-  m.rolling = ref.rolling() || src.rolling();
-  if (!m.rolling) return m;
-  const PinholeCamera& ref_camera = problem.reference_camera;
-  const PinholeCamera& src_camera = problem.source_cameras[source];
-  m.ref_row_a = static_cast<float>(ref.rowTimeSlope(ref_camera.height));
-  m.ref_row_c = static_cast<float>(ref.rowTimeAtTop(ref_camera.height));
-  m.source_row_a = static_cast<float>(src.rowTimeSlope(src_camera.height));
-  m.source_row_c = static_cast<float>(src.rowTimeAtTop(src_camera.height));
-  m.ref_velocity = toVec3(ref_camera.K() * ref.velocity);
-  m.ref_velocity_in_source = toVec3(src_camera.K() * reference_to_source * ref.velocity);
-  m.source_velocity = toVec3(src_camera.K() * src.velocity);
-  return m;
-}
-
 PatchMatchParams makePatchMatchParams(const PatchMatchOptions& o, const DepthProblem& problem) {
   PatchMatchParams p{};
   const PinholeCamera& ref = problem.reference_camera;
@@ -215,7 +179,6 @@ PatchMatchParams makePatchMatchParams(const PatchMatchOptions& o, const DepthPro
     g.width = static_cast<float>(src.width);
     g.height = static_cast<float>(src.height);
     g.layer = j;  // the CPU sampler's index; the CUDA backend puts its pool slot here
-    g.rows = rowMotion(problem, j, rel.R);
     const Eigen::Matrix3d A_inv = A.inverse();
     for (int i = 0; i < 9; ++i) p.back[j].A_inv.m[i] = static_cast<float>(A_inv(i / 3, i % 3));
     p.back[j].depth_offset = -1;  // set by the backend with the depth buffer

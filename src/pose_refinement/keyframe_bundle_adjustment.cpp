@@ -15,26 +15,24 @@ namespace {
 template <typename T>
 using Vector3 = Eigen::Matrix<T, 3, 1>;
 
-// (pi(K (R'^T (X - c') - s)) - x) / sigma for one observation x, s its
-// row's camera centre shift.
+// (pi(K R'^T (X - c')) - x) / sigma for one observation x.
 struct ReprojectionResidual {
   Eigen::Matrix3d rotation;  // tracker, camera-to-world
   Eigen::Vector3d centre;    // tracker, world
   double fx, fy, cx, cy;
   Eigen::Vector2d pixel;
-  Eigen::Vector3d row_offset;  // camera frame (rolling shutter; else 0)
   double inverse_sigma;
 
   template <typename T>
   bool operator()(const T* w, const T* dc, const T* point, T* residual) const {
     return pixelResidual(inCamera(w, dc, point), residual);
   }
-  // The point in the corrected camera's frame, seen from the row's centre.
+  // The point in the corrected camera's frame.
   template <typename T>
   Vector3<T> inCamera(const T* w, const T* dc, const T* point) const {
     const Vector3<T> offset(point[0] - (T(centre[0]) + dc[0]), point[1] - (T(centre[1]) + dc[1]),
                             point[2] - (T(centre[2]) + dc[2]));
-    return correctedRotation(w, rotation).transpose() * offset - row_offset.cast<T>();
+    return correctedRotation(w, rotation).transpose() * offset;
   }
   template <typename T>
   bool pixelResidual(const Vector3<T>& in_camera, T* residual) const {
@@ -42,26 +40,6 @@ struct ReprojectionResidual {
     residual[0] = (T(fx) * in_camera[0] / in_camera[2] + T(cx) - T(pixel.x())) * T(inverse_sigma);
     residual[1] = (T(fy) * in_camera[1] / in_camera[2] + T(cy) - T(pixel.y())) * T(inverse_sigma);
     return true;
-  }
-};
-
-// The same for a rolling-shutter keyframe whose velocity is solved as well
-// (VelocityPrior): its image was rectified with a turn rate off by dw and its
-// rows' centres moved with a velocity off by dv, so the row at time tau sees
-// the point turned by Exp(-dw tau) and shifted by dv tau more (first order
-// in dw and dv).
-struct MovingReprojectionResidual {
-  ReprojectionResidual still;
-  double row_time;  // tau of the observation's row, seconds from the middle row
-
-  template <typename T>
-  bool operator()(const T* w, const T* dc, const T* dw, const T* dv, const T* point, T* residual) const {
-    Vector3<T> shifted = still.inCamera(w, dc, point);
-    for (int i = 0; i < 3; ++i) shifted[i] -= dv[i] * T(row_time);
-    const T back_turn[3] = {-dw[0] * T(row_time), -dw[1] * T(row_time), -dw[2] * T(row_time)};
-    Vector3<T> in_camera;
-    ceres::AngleAxisRotatePoint(back_turn, shifted.data(), in_camera.data());
-    return still.pixelResidual(in_camera, residual);
   }
 };
 
@@ -169,8 +147,7 @@ bool triangulate(const std::map<int64_t, BundleKeyframe>& keyframes, double min_
     rays.push_back(rayOf(camera, observation.pixel));
     const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - rays.back() * rays.back().transpose();
     normal += across;
-    right += across * (camera.center() +
-                       camera.R.transpose() * keyframe.motion.rowOffset(observation.pixel.y(), camera.height));
+    right += across * camera.center();
   }
   double widest_cos = 1;
   for (size_t i = 0; i < rays.size(); ++i)
@@ -185,35 +162,12 @@ bool triangulate(const std::map<int64_t, BundleKeyframe>& keyframes, double min_
 
 struct Correction {
   double w[3] = {0, 0, 0}, dc[3] = {0, 0, 0};
-  double dw[3] = {0, 0, 0}, dv[3] = {0, 0, 0};  // velocity corrections (solve_velocities)
 };
 
 ReprojectionResidual residualOf(const BundleKeyframe& keyframe, const Observation& observation) {
   const PinholeCamera& camera = keyframe.camera;
   return {camera.R.transpose(), camera.center(), camera.fx, camera.fy, camera.cx, camera.cy, observation.pixel,
-          keyframe.motion.rowOffset(observation.pixel.y(), camera.height), 1 / observation.sigma_px};
-}
-
-bool solvesVelocity(const BundleKeyframe& keyframe) {
-  return keyframe.velocity.solved() && keyframe.motion.readout_s > 0 && keyframe.camera.height > 1;
-}
-
-// (the velocity's offset from the tracker's + its correction) / the tracker's noise.
-struct VelocityPriorResidual {
-  VelocityPrior prior;
-
-  template <typename T>
-  bool operator()(const T* dw, const T* dv, T* residual) const {
-    for (int i = 0; i < 3; ++i) {
-      residual[i] = (T(prior.offset.angular[i]) + dw[i]) / T(prior.angular_sigma_rad_s);
-      residual[3 + i] = (T(prior.offset.linear[i]) + dv[i]) / T(prior.linear_sigma_m_s);
-    }
-    return true;
-  }
-};
-
-MovingReprojectionResidual movingResidualOf(const BundleKeyframe& keyframe, const Observation& observation) {
-  return {residualOf(keyframe, observation), keyframe.motion.rowTime(observation.pixel.y(), keyframe.camera.height)};
+          1 / observation.sigma_px};
 }
 
 // Reprojection error in pixels (infinite behind the camera).
@@ -221,12 +175,7 @@ double errorPx(const BundleKeyframe& keyframe, const Observation& observation, c
                const Eigen::Vector3d& point) {
   double value[2];
   const ReprojectionResidual residual = residualOf(keyframe, observation);
-  const bool behind =
-      solvesVelocity(keyframe)
-          ? !movingResidualOf(keyframe, observation)(correction.w, correction.dc, correction.dw, correction.dv,
-                                                      point.data(), value)
-          : !residual(correction.w, correction.dc, point.data(), value);
-  if (behind) return INFINITY;
+  if (!residual(correction.w, correction.dc, point.data(), value)) return INFINITY;
   return std::hypot(value[0], value[1]) / residual.inverse_sigma;
 }
 
@@ -252,34 +201,17 @@ bool solve(const std::map<int64_t, BundleKeyframe>& keyframes, const KeyframeBun
         robust = new ceres::CauchyLoss(scale);
       else
         robust = new ceres::HuberLoss(scale);
-      const BundleKeyframe& keyframe = keyframes.at(observation.key);
-      if (solvesVelocity(keyframe))
-        problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<MovingReprojectionResidual, 2, 3, 3, 3, 3, 3>(
-                new MovingReprojectionResidual(movingResidualOf(keyframe, observation))),
-            robust, correction.w, correction.dc, correction.dw, correction.dv, track.point.data());
-      else
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 3, 3, 3>(
-                                     new ReprojectionResidual(residualOf(keyframe, observation))),
-                                 robust, correction.w, correction.dc, track.point.data());
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 3, 3, 3>(
+                                   new ReprojectionResidual(residualOf(keyframes.at(observation.key), observation))),
+                               robust, correction.w, correction.dc, track.point.data());
     }
   }
   if (problem.NumResidualBlocks() == 0) return false;
   addPosePriors(settings.prior_rotation_sigma_rad, settings.prior_position_sigma_m, corrections, &problem);
   for (auto& entry : *corrections) {
-    const BundleKeyframe& keyframe = keyframes.at(entry.first);
-    const bool moving = solvesVelocity(keyframe);
-    if (moving)
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<VelocityPriorResidual, 6, 3, 3>(
-                                   new VelocityPriorResidual{keyframe.velocity}),
-                               nullptr, entry.second.dw, entry.second.dv);
     if (!held.count(entry.first)) continue;
     problem.SetParameterBlockConstant(entry.second.w);
     problem.SetParameterBlockConstant(entry.second.dc);
-    if (moving) {
-      problem.SetParameterBlockConstant(entry.second.dw);
-      problem.SetParameterBlockConstant(entry.second.dv);
-    }
   }
   return solveProblem(&problem, settings.max_iterations, ceres::SPARSE_SCHUR, ceres::DENSE_SCHUR);
 }
@@ -382,8 +314,6 @@ KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, BundleKey
   for (const auto& entry : corrections) {
     result.poses[entry.first] =
         correctedPose(cameraToWorld(keyframes.at(entry.first).camera), entry.second.w, entry.second.dc);
-    if (solvesVelocity(keyframes.at(entry.first)))
-      result.velocity_corrections[entry.first] = {Eigen::Vector3d(entry.second.dw), Eigen::Vector3d(entry.second.dv)};
   }
   return result;
 }

@@ -116,17 +116,8 @@ class PoseRefiner::Impl {
   explicit Impl(const PoseRefinementOptions& options) : options_(options) {}
 
   PoseRefinementResult refine(DepthProblem* problem);
-  KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras,
-                                                 const std::map<int64_t, ViewMotion>& motions,
-                                                 const std::map<int64_t, VelocityPrior>& velocities) const;
+  KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras) const;
   void forget(int64_t key);
-  void moveFeatures(int64_t key, const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>& move) {
-    const auto found = cache_.find(key);
-    if (found == cache_.end()) return;
-    auto moved = std::make_shared<ImageFeatures>(*found->second);
-    for (Eigen::Vector2d& pixel : moved->pixels) pixel = move(pixel);
-    found->second = std::move(moved);
-  }
   void forgetAll() {
     cache_.clear();
     pair_matches_.clear();
@@ -153,17 +144,12 @@ void PoseRefiner::Impl::forget(int64_t key) {
 }
 
 KeyframeBundleAdjustmentResult PoseRefiner::Impl::adjustKeyframes(
-    const std::map<int64_t, PinholeCamera>& cameras, const std::map<int64_t, ViewMotion>& motions,
-    const std::map<int64_t, VelocityPrior>& velocities) const {
+    const std::map<int64_t, PinholeCamera>& cameras) const {
   std::map<int64_t, BundleKeyframe> keyframes;
   for (const auto& entry : cameras) {
     const auto features = cache_.find(entry.first);
     if (features == cache_.end()) continue;
-    const auto motion = motions.find(entry.first);
-    const auto velocity = velocities.find(entry.first);
-    keyframes[entry.first] = {entry.second, features->second->pixels,
-                              motion != motions.end() ? motion->second : ViewMotion(), features->second->sizes,
-                              velocity != velocities.end() ? velocity->second : VelocityPrior()};
+    keyframes[entry.first] = {entry.second, features->second->pixels, features->second->sizes};
   }
   std::vector<KeyframeFeatureMatches> matches;
   for (const auto& pair : pair_matches_) matches.push_back({pair.first.first, pair.first.second, pair.second});
@@ -298,15 +284,10 @@ PoseRefiner::PoseRefiner(const PoseRefinementOptions& options) : options_(option
 PoseRefiner::~PoseRefiner() = default;
 
 PoseRefinementResult PoseRefiner::refine(DepthProblem* problem) { return impl_->refine(problem); }
-KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras,
-                                                            const std::map<int64_t, ViewMotion>& motions,
-                                                            const std::map<int64_t, VelocityPrior>& velocities) const {
-  return impl_->adjustKeyframes(cameras, motions, velocities);
+KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras) const {
+  return impl_->adjustKeyframes(cameras);
 }
 void PoseRefiner::forget(int64_t key) { impl_->forget(key); }
-void PoseRefiner::moveFeatures(int64_t key, const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>& move) {
-  impl_->moveFeatures(key, move);
-}
 void PoseRefiner::forgetAll() { impl_->forgetAll(); }
 size_t PoseRefiner::cachedImages() const { return impl_->cached(); }
 

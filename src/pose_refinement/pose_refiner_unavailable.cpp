@@ -22,14 +22,11 @@ PoseRefinementResult PoseRefiner::refine(DepthProblem*) {
   return result;
 }
 
-KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64_t, PinholeCamera>&,
-                                                            const std::map<int64_t, ViewMotion>&,
-                                                            const std::map<int64_t, VelocityPrior>&) const {
+KeyframeBundleAdjustmentResult PoseRefiner::adjustKeyframes(const std::map<int64_t, PinholeCamera>&) const {
   return {};
 }
 
 void PoseRefiner::forget(int64_t) {}
-void PoseRefiner::moveFeatures(int64_t, const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>&) {}
 void PoseRefiner::forgetAll() {}
 size_t PoseRefiner::cachedImages() const { return 0; }
 

@@ -28,7 +28,6 @@ const std::vector<InputStatField>& inputStatFields() {
       {"frames_refused_blurred", &InputStats::frames_refused_blurred},
       {"blurred_frames_taken_anyway", &InputStats::blurred_frames_taken_anyway},
       {"keyframes_sent", &InputStats::keyframes_sent},
-      {"twists_not_used", &InputStats::twists_not_used},
       {"dropped: encoding", &InputStats::dropped_encoding},
       {"dropped: bad_pose", &InputStats::dropped_bad_pose},
       {"dropped: bad_camera_info", &InputStats::dropped_bad_camera_info},
@@ -279,20 +278,11 @@ void MappingInputs::odometryCallback(const sensor_msgs::ImageConstPtr& image,
                                      const sensor_msgs::CameraInfoConstPtr& info,
                                      const nav_msgs::OdometryConstPtr& odometry) {
   noteSynchronised();
-  std::optional<amhmvs::CameraVelocity> velocity;
-  const std::string problem =
-      velocityFromTwist(odometry->twist.twist, odometry->child_frame_id, image->header.frame_id, &velocity);
-  if (!problem.empty()) {
-    count(&InputStats::twists_not_used);
-    ROS_WARN_THROTTLE(kReportPeriod, "odometry %s: the rolling shutter is corrected from the poses instead",
-                      problem.c_str());
-  }
-  offerImage(image, info, odometry->header.frame_id, odometry->pose.pose, velocity);
+  offerImage(image, info, odometry->header.frame_id, odometry->pose.pose);
 }
 
 void MappingInputs::offerImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
-                               const std::string& pose_frame, const geometry_msgs::Pose& pose,
-                               std::optional<amhmvs::CameraVelocity> velocity) {
+                               const std::string& pose_frame, const geometry_msgs::Pose& pose) {
   if (!pose_frame.empty() && pose_frame != config_.node.fixed_frame) {
     ROS_WARN_ONCE("%s frame '%s' is not ~fixed_frame '%s': the poses are used as they are",
                   config_.node.input_mode.c_str(), pose_frame.c_str(), config_.node.fixed_frame.c_str());
@@ -301,7 +291,6 @@ void MappingInputs::offerImage(const sensor_msgs::ImageConstPtr& image, const se
   frame.header = image->header;
   frame.image = image;
   frame.info = info;
-  frame.velocity = velocity;
   offer(std::move(frame), pose, true);
 }
 
@@ -392,7 +381,6 @@ amhmvs::Keyframe MappingInputs::toKeyframe(const Frame& frame, amhmvs::ImageU8 c
   amhmvs::Keyframe keyframe;
   keyframe.id = frame.id;
   keyframe.stamp = frame.header.stamp.toSec();
-  keyframe.velocity = frame.velocity;
   keyframe.image = std::move(converted);
   std::string problem = keyframe.image.empty() ? imageFromMsg(*frame.image, &keyframe.image) : std::string();
   if (problem.empty())

@@ -83,21 +83,6 @@ std::string poseFromMsg(const geometry_msgs::Pose& msg, Eigen::Isometry3d* camer
 
 geometry_msgs::Pose poseToMsg(const Eigen::Isometry3d& camera_to_world) { return tf2::toMsg(camera_to_world); }
 
-std::string velocityFromTwist(const geometry_msgs::Twist& twist, const std::string& twist_frame,
-                              const std::string& image_frame, std::optional<amhmvs::CameraVelocity>* velocity) {
-  velocity->reset();
-  amhmvs::CameraVelocity v;
-  v.angular = Eigen::Vector3d(twist.angular.x, twist.angular.y, twist.angular.z);
-  v.linear = Eigen::Vector3d(twist.linear.x, twist.linear.y, twist.linear.z);
-  if (!v.finite()) return "twist has a non-finite value";
-  if (v.angular.isZero(0) && v.linear.isZero(0)) return "";
-  if (!twist_frame.empty() && twist_frame != image_frame) {
-    return "twist is in '" + twist_frame + "', not the image's optical frame '" + image_frame + "'";
-  }
-  *velocity = v;
-  return "";
-}
-
 std::string cameraFromMsg(const sensor_msgs::CameraInfo& info, int width, int height,
                           const Eigen::Isometry3d& camera_to_world, amhmvs::PinholeCamera* camera,
                           bool* distorted) {

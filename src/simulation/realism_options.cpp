@@ -10,7 +10,6 @@ namespace amhmvs {
 
 bool RealismOptions::any() const {
   return pose_noise_m != 0 || pose_noise_deg != 0 || pose_drift_m != 0 || pose_drift_deg != 0 ||
-         velocity_noise_rad_s != 0 || velocity_noise_m_s != 0 ||
          time_offset_s != 0 || rolling_shutter_s != 0 || motion_blur_s != 0 || exposure_gain_sigma != 0 ||
          exposure_offset_sigma != 0 || noise_sigma != 0 || shot_noise != 0;
 }
@@ -25,8 +24,6 @@ std::string RealismOptions::check() const {
   range("pose_noise_deg", pose_noise_deg, 0, 45, "in [0, 45] degrees");
   range("pose_drift_m", pose_drift_m, 0, 1, "in [0, 1] m/sqrt(s)");
   range("pose_drift_deg", pose_drift_deg, 0, 45, "in [0, 45] deg/sqrt(s)");
-  range("velocity_noise_rad_s", velocity_noise_rad_s, 0, 10, "in [0, 10] rad/s");
-  range("velocity_noise_m_s", velocity_noise_m_s, 0, 10, "in [0, 10] m/s");
   range("time_offset_s", time_offset_s, -1, 1, "in [-1, 1] seconds");
   range("rolling_shutter_s", rolling_shutter_s, 0, 1, "in [0, 1] seconds");
   range("motion_blur_s", motion_blur_s, 0, 1, "in [0, 1] seconds");
@@ -52,9 +49,6 @@ RealismOptions realismProfile(const std::string& name) {
   options.pose_noise_deg = 0.3;
   options.pose_drift_m = 0.005;
   options.pose_drift_deg = 0.1;
-  // A VIO's velocity: gyro-measured turn rate, filtered linear velocity.
-  options.velocity_noise_rad_s = 0.01;
-  options.velocity_noise_m_s = 0.03;
   options.time_offset_s = 0.008;
   options.rolling_shutter_s = 0.025;
   options.motion_blur_s = 0.08;
@@ -75,10 +69,6 @@ const std::vector<RealismOptionInfo>& realismOptionTable() {
                   "written poses: random-walk position bias, std dev per axis after 1 s, m/sqrt(s)"),
       numberField("pose_drift_deg", &O::pose_drift_deg,
                   "written poses: random-walk rotation bias, std dev per axis after 1 s, deg/sqrt(s)"),
-      numberField("velocity_noise_rad_s", &O::velocity_noise_rad_s,
-                  "written velocities: angular error, std dev per axis, rad/s"),
-      numberField("velocity_noise_m_s", &O::velocity_noise_m_s,
-                  "written velocities: linear error, std dev per axis, m/s"),
       numberField("time_offset_s", &O::time_offset_s, "image taken this long after its pose's stamp, s"),
       numberField("rolling_shutter_s", &O::rolling_shutter_s,
                   "readout time from the first to the last row (middle row at the stamp + offset), s"),

@@ -25,8 +25,6 @@ enum Stream : uint32_t {
   kGain,
   kOffset,
   kPixelNoise,
-  kVelocityNoiseAngular,
-  kVelocityNoiseLinear,
 };
 
 // Uniform in (0, 1), a pure function of (seed, stream, index, draw): no state,
@@ -95,23 +93,6 @@ CameraTrajectory interpolatedTrajectory(std::vector<PinholeCamera> cameras, doub
   };
 }
 
-CameraVelocity trajectoryVelocity(const CameraTrajectory& trajectory, int frame, double seconds) {
-  constexpr double kStep = 1e-3;
-  const PinholeCamera before = trajectory(frame, seconds - kStep), after = trajectory(frame, seconds + kStep);
-  const PinholeCamera at = trajectory(frame, seconds);
-  CameraVelocity v;
-  v.angular = cameraAngularVelocity(before, after, 2 * kStep);
-  v.linear = at.R * (after.center() - before.center()) / (2 * kStep);
-  return v;
-}
-
-CameraVelocity trackedVelocity(const CameraTrajectory& trajectory, int frame, const FrameDisturbance& disturbance) {
-  CameraVelocity v = trajectoryVelocity(trajectory, frame, 0.0);
-  v.angular += disturbance.velocity_error.angular;
-  v.linear += disturbance.velocity_error.linear;
-  return v;
-}
-
 CameraTrajectory smoothRoomTrajectory(int count, int width, int height, uint32_t seed, double frame_period_s) {
   requirePeriod(frame_period_s);
   makeSmoothTrajectory(count, width, height, seed);  // refuses bad counts and sizes here
@@ -150,12 +131,6 @@ std::vector<FrameDisturbance> drawFrameDisturbances(const RealismOptions& option
       d.rotation_error =
           rotationFromVector(options.pose_noise_deg * kDegree * gaussianVector(seed, kPoseNoiseRotation, i)) *
           d.rotation_error;
-    }
-    if (options.velocity_noise_rad_s > 0) {
-      d.velocity_error.angular = options.velocity_noise_rad_s * gaussianVector(seed, kVelocityNoiseAngular, i);
-    }
-    if (options.velocity_noise_m_s > 0) {
-      d.velocity_error.linear = options.velocity_noise_m_s * gaussianVector(seed, kVelocityNoiseLinear, i);
     }
     // Stationary AR(1): the first state is a plain draw.
     const double gain_draw = gaussianDraw(seed, kGain, i), offset_draw = gaussianDraw(seed, kOffset, i);

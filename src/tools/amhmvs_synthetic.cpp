@@ -148,7 +148,6 @@ int run(const std::vector<std::string>& args) {
   std::vector<double> medians;
   std::vector<PinholeCamera> cameras;  // as written: the tracker's
   std::vector<FrameRealismReport> reports;
-  std::map<int, CameraVelocity> velocities;  // the tracker's, at each pose's stamp
   for (int v = 0; v < views; ++v) {
     // With realism none this is renderView at the trajectory's view, bit for bit.
     const RenderedView view = renderRealisticView(world, trajectory, v, realism, disturbances[v]);
@@ -165,7 +164,6 @@ int run(const std::vector<std::string>& args) {
     if (realism.any()) {
       writeMvsnetCam(out + "/cams_gt/" + name + "_cam.txt", view.camera, 0.9 * lo, 1.1 * hi);
       reports.push_back(reportFrame(view, cameras.back(), trajectory, v, realism, disturbances[v]));
-      velocities[v] = trackedVelocity(trajectory, v, disturbances[v]);
     }
     medians.push_back(medianFinite(view.depth));
     std::fprintf(stderr, "\rrendered %d/%d views", v + 1, views);
@@ -191,7 +189,6 @@ int run(const std::vector<std::string>& args) {
                o.scene.c_str());
   if (realism.any()) {
     writeRealismReport(out + "/realism.txt", realism, o.frame_period, reports);
-    writeMvsnetVelocities(out + "/velocities.txt", velocities);
     std::fprintf(stderr, "%s\n", summarizeRealism(reports).c_str());
   }
   return 0;

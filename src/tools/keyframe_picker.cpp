@@ -51,7 +51,6 @@ Keyframe makeKeyframe(const PosedFrame& frame, const MapToolOptions& options, Im
   keyframe.stamp = frame.stamp;
   keyframe.image = decoded.empty() ? readImage(frame.image_path) : std::move(decoded);
   keyframe.camera = frame.camera;
-  keyframe.velocity = frame.velocity;
   if (!keyframe.image.sameSize(frame.camera.width, frame.camera.height)) {
     throw InputError(frame.image_path + ": image is " + std::to_string(keyframe.image.width) + "x" +
                      std::to_string(keyframe.image.height) + ", its camera " + std::to_string(frame.camera.width) +

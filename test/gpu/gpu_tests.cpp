@@ -636,36 +636,6 @@ void determinism(const std::string& data) {
   std::printf("INFO  %s\n", text);
 }
 
-// Rolling shutters with known velocities (DepthProblem::reference_motion,
-// source_motions; rowCentreHomography in matching_cost.h): the GPU follows
-// the CPU as closely as without them, and the motion moves more pixels than
-// the backends' own disagreement (so a backend that ignored it would fail).
-// Handheld speeds: the fountain's images have no rolling shutter, so a
-// large motion only makes the matching worse (at 2 m/s 70 % of the pixels
-// moved and the backends agreed on 85 %).
-void rollingShutterAgreement(const std::string& data) {
-  const OwnedDepthProblem owned = loadProblem(data + "/mvsnet/fountain_x0.25", 3, 10, 384);
-  const DepthMap global_gpu = run(owned.problem, Backend::kCuda), global_cpu = run(owned.problem, Backend::kCpu);
-  const double global_agreement = agreement(global_gpu.depth, global_cpu.depth, 0.001);
-  for (double speed : {0.5, 1.0}) {
-    DepthProblem rolling = owned.problem;
-    rolling.reference_motion = {speed * Eigen::Vector3d(0.6, -0.2, 0.3), 0.03};
-    for (size_t s = 0; s < rolling.source_cameras.size(); ++s)
-      rolling.source_motions.push_back({speed * Eigen::Vector3d(s % 2 ? 0.5 : -0.4, 0.3, 0.2), 0.03});
-    const DepthMap gpu = run(rolling, Backend::kCuda), cpu = run(rolling, Backend::kCpu);
-    const double rolling_agreement = agreement(gpu.depth, cpu.depth, 0.001);
-    const double moved = 1 - agreement(gpu.depth, global_gpu.depth, 0.001);
-    char text[320];
-    std::snprintf(text, sizeof(text),
-                  "rolling shutters at %.1fx handheld speed (fountain view 3 at 384 px): CPU/GPU agreement %.2f %% "
-                  "within 0.1 %% depth (global shutters %.2f %%); %.1f %% of pixels moved by the motion; %.1f ms on "
-                  "the GPU (global %.1f)",
-                  speed, 100 * rolling_agreement, 100 * global_agreement, 100 * moved, gpu.milliseconds,
-                  global_gpu.milliseconds);
-    expect(rolling_agreement >= global_agreement - 0.01 && moved > 1.5 * (1 - global_agreement), text);
-  }
-}
-
 }  // namespace
 }  // namespace amhmvs
 
@@ -976,7 +946,6 @@ int main(int argc, char** argv) {
     std::printf("INFO  peak bilinear fetch rate (8-bit layered texture, cache-resident): %.3g fetches/s\n",
                 measureBilinearFetchRate());
     determinism(data);
-    rollingShutterAgreement(data);
     residentPool(data);
     gpuFusion(640, 480);
     gpuAgreement(640, 480);

@@ -110,27 +110,6 @@ TEST(RosConversions, PosesMustBeFiniteAndRigid) {
   EXPECT_NE(poseFromMsg(msg, &pose), "");
 }
 
-TEST(RosConversions, TwistGivesTheCamerasVelocityInItsOpticalFrame) {
-  geometry_msgs::Twist twist;
-  std::optional<amhmvs::CameraVelocity> velocity;
-  EXPECT_EQ(velocityFromTwist(twist, "cam", "cam", &velocity), "");
-  EXPECT_FALSE(velocity.has_value());  // all zero: the tracker did not fill it
-  twist.angular.y = 0.4;
-  twist.linear.x = -0.7;
-  ASSERT_EQ(velocityFromTwist(twist, "cam", "cam", &velocity), "");
-  ASSERT_TRUE(velocity.has_value());
-  EXPECT_EQ(velocity->angular, Eigen::Vector3d(0, 0.4, 0));
-  EXPECT_EQ(velocity->linear, Eigen::Vector3d(-0.7, 0, 0));
-  ASSERT_EQ(velocityFromTwist(twist, "", "cam", &velocity), "");  // no child frame: taken as the camera's
-  EXPECT_TRUE(velocity.has_value());
-  EXPECT_EQ(velocityFromTwist(twist, "base_link", "cam", &velocity),
-            "twist is in 'base_link', not the image's optical frame 'cam'");
-  EXPECT_FALSE(velocity.has_value());
-  twist.linear.z = std::nan("");
-  EXPECT_EQ(velocityFromTwist(twist, "cam", "cam", &velocity), "twist has a non-finite value");
-  EXPECT_FALSE(velocity.has_value());
-}
-
 TEST(RosConversions, CameraInfoMustMatchTheImage) {
   amhmvs::PinholeCamera camera;
   bool distorted = true;

@@ -12,38 +12,6 @@
 
 namespace amhmvs {
 
-// A camera's velocity at an instant, in its own (optical) frame: angular in
-// rad/s, linear (of the centre) in m/s.
-struct CameraVelocity {
-  Eigen::Vector3d angular = Eigen::Vector3d::Zero();
-  Eigen::Vector3d linear = Eigen::Vector3d::Zero();
-  bool finite() const { return angular.allFinite() && linear.allFinite(); }
-};
-
-// A rolling-shutter view's motion during its readout: its camera centre at
-// row y is the middle row's moved by tau(y) velocity, tau(y) = readout_s
-// (y / (height - 1) - 1/2). The images come with the rotation during the
-// readout rectified (mapping/rolling_shutter.h); the matching cost
-// (mvs/matching_cost.h, rowCentreHomography) and the keyframe bundle
-// adjustment account for the translation.
-struct ViewMotion {
-  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  // the view's own camera frame, m/s
-  double readout_s = 0;                                // first row to last; 0: a global shutter
-  bool rolling() const { return readout_s > 0 && velocity.squaredNorm() > 0; }
-  // tau(y) = rowTimeSlope y + rowTimeAtTop: both 0 when the view does not
-  // move during a readout (the matching cost takes them as they are).
-  double rowTimeSlope(int height) const { return rolling() && height > 1 ? readout_s / (height - 1) : 0; }
-  double rowTimeAtTop(int height) const { return rolling() && height > 1 ? -0.5 * readout_s : 0; }
-  // tau(y) whether or not the view moves (the keyframe bundle adjustment
-  // solves velocities, so it needs tau before one is known): 0 only for a
-  // global shutter.
-  double rowTime(double row, int height) const {
-    return readout_s > 0 && height > 1 ? readout_s / (height - 1) * row - 0.5 * readout_s : 0;
-  }
-  // Row y's camera centre minus the middle row's, in the camera frame.
-  Eigen::Vector3d rowOffset(double row, int height) const { return rowTime(row, height) * velocity; }
-};
-
 // The angle of a rotation, in degrees.
 inline double rotationAngleDeg(const Eigen::Matrix3d& rotation) {
   return Eigen::AngleAxisd(rotation).angle() * 180.0 / M_PI;

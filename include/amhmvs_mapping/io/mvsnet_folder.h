@@ -42,12 +42,4 @@ Scene readMvsnetDenseFolder(const std::string& dir);
 void writeMvsnetCam(const std::string& path, const PinholeCamera& camera, double depth_min,
                     double depth_max);
 
-// velocities.txt (our addition to the layout, written by amhmvs_synthetic
-// --realism): per view "id wx wy wz vx vy vz", the camera's angular (rad/s)
-// and linear (m/s) velocity at its stamp in its own frame; '#' starts a
-// comment line. Reading throws InputError naming the file and line for a
-// malformed or non-finite line and a repeated id.
-std::map<int, CameraVelocity> readMvsnetVelocities(const std::string& path);
-void writeMvsnetVelocities(const std::string& path, const std::map<int, CameraVelocity>& velocities);
-
 }  // namespace amhmvs

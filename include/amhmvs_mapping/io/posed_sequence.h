@@ -54,9 +54,6 @@ struct PosedFrame {
   // The true pose where `camera` is a tracker's (MVSNet cams_gt/NNNNNNNN_cam.txt,
   // as amhmvs_synthetic --realism writes it): for reports only.
   std::optional<PinholeCamera> true_camera;
-  // The camera's velocity at the stamp where the recording has it (MVSNet
-  // velocities.txt), for rolling-shutter correction.
-  std::optional<CameraVelocity> velocity;
 };
 
 struct PosedSequence {

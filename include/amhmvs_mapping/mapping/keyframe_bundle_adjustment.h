@@ -11,19 +11,12 @@
 //   unknowns  per keyframe a correction of its camera-to-world pose,
 //             R' = Exp(w) R, c' = c + dc (as the pose graph's), and per
 //             track a world point X;
-//   residuals (pi(K (R'^T (X - c') - s(x))) - x) / feature_sigma for
-//             every observation x of a track, s(x) the rolling shutter's
-//             shift of x's row (ViewMotion::rowOffset; 0 for a global
-//             shutter) (Cauchy's loss at huber_px in the
+//   residuals (pi(K R'^T (X - c')) - x) / feature_sigma for every
+//             observation x of a track (Cauchy's loss at huber_px in the
 //             first solve, Huber's in the second), and the
 //             tracker's noise as a prior on every correction:
 //             w / prior_rotation_sigma, dc / prior_position_sigma (the
 //             gauge, and the one scale of the whole map).
-//   and, for a keyframe with a VelocityPrior, its velocity too: unknowns
-//             dw, dv (turn rate and linear velocity, camera frame), the
-//             observation's ray turned by Exp(-dw tau) after the shift
-//             s(x) + dv tau (tau its row's time), and the prior
-//             (offset + (dw, dv)) / the tracker's velocity noise.
 // Matches are joined into tracks unless the join would give a track two
 // features of one keyframe (then one of the matches is wrong: refused).
 // Tracks start triangulated at the tracker's poses; one whose rays meet at
@@ -72,26 +65,12 @@ struct KeyframeBundleAdjustmentSettings {
   int max_iterations = 50;
 };
 
-// A rolling-shutter keyframe whose velocity the adjustment solves as well:
-// the tracker's velocity noise (std dev per axis; both > 0 to solve) and how
-// far the velocity its image was rectified with (turn rate) and its rows'
-// centres move with (BundleKeyframe::motion) already is from the tracker's
-// (the prior is on the tracker's velocity, not on the current one).
-struct VelocityPrior {
-  double angular_sigma_rad_s = 0, linear_sigma_m_s = 0;
-  CameraVelocity offset;  // current minus the tracker's, camera frame
-  bool solved() const { return angular_sigma_rad_s > 0 && linear_sigma_m_s > 0; }
-};
-
-// A keyframe: its camera at the tracker's pose, its features' pixels
-// (index = feature number of the matches) and, for a rolling shutter whose
-// velocity is known, its motion during the readout.
+// A keyframe: its camera at the tracker's pose and its features' pixels
+// (index = feature number of the matches).
 struct BundleKeyframe {
   PinholeCamera camera;
   std::vector<Eigen::Vector2d> pixels;
-  ViewMotion motion;
   std::vector<double> sizes;  // per feature, its diameter in pixels; empty: all of the finest size
-  VelocityPrior velocity;     // solved() and motion.readout_s > 0: the velocity is solved too
 };
 
 // The position noise of a feature of size `size_px`: feature_sigma_px *
@@ -124,9 +103,6 @@ struct KeyframeBundleAdjustmentResult {
   int observations = 0;  // in the final solve
   double rms_before_px = 0;  // of those observations: at the tracker's poses (points triangulated there)
   double rms_after_px = 0;   // after the adjustment
-  // Per keyframe whose velocity was solved: what to add to the turn rate the
-  // image was rectified with and to its motion's velocity (camera frame).
-  std::map<int64_t, CameraVelocity> velocity_corrections;
 };
 
 bool keyframeBundleAdjustmentAvailable();

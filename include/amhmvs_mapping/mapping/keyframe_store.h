@@ -51,10 +51,6 @@ struct Keyframe {
   // front end); used when both are > 0.
   double depth_min = 0, depth_max = 0;
   std::vector<Eigen::Vector3d> sparse_points;  // optional SLAM points, world frame
-  // Optional: the camera's velocity at the stamp, as the tracker knows it
-  // (VIO state, odometry twist, poses at camera rate). A rolling shutter is
-  // then corrected with it: rotation and translation (rolling_shutter.h).
-  std::optional<CameraVelocity> velocity;
 
   bool hasDepthRange() const { return depth_min > 0 && depth_max > 0; }
   Eigen::Isometry3d cameraToWorld() const { return amhmvs::cameraToWorld(camera); }
@@ -77,9 +73,6 @@ struct StoredKeyframe {
   ImageU8 gray_image;
   const ImageU8& grayImage() const { return gray_image.empty() ? keyframe.image : gray_image; }
   std::vector<int64_t> sources;  // source keyframes chosen while pending
-  // The camera's motion during its rolling-shutter readout (set with the
-  // rectification of its image; default: a global shutter).
-  ViewMotion motion;
   // Shared with the result that reported them and the voxel map (no copy).
   Shared<DepthMap> depth;          // empty until attachDepth()
   Shared<KeyframePoints> points;   // dense points, camera frame; empty until attachPoints()
@@ -134,9 +127,6 @@ class KeyframeStore {
   // copy follows); for corrections made before anything read the old one
   // (rolling_shutter.h). Throws InputError otherwise.
   void replaceImage(int64_t id, ImageU8 image);
-  // Records the keyframe's motion during its readout; throws InputError for
-  // an unknown id.
-  void setMotion(int64_t id, const ViewMotion& motion);
 
   // Removes a keyframe; throws InputError for an unknown id.
   void remove(int64_t id);

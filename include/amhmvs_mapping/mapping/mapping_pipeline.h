@@ -147,10 +147,6 @@ struct PipelineStats {
   // images used as they came (no keyframe close enough before to tell the motion).
   uint64_t rolling_shutter_rectified = 0;
   uint64_t rolling_shutter_not_rectified = 0;
-  // Of the rectified: with the tracker's velocity (use_tracker_velocity).
-  uint64_t rolling_shutter_from_tracker_velocity = 0;
-  // Images rectified again from the adjusted poses (from_adjusted_poses; each time counts).
-  uint64_t rolling_shutter_rectified_again = 0;
   uint64_t map_voxels = 0;
   uint64_t map_revision = 0;
   bool idle = true;                    // the last step() found nothing to do and nothing is queued

@@ -323,14 +323,6 @@ class OnlineMapper {
   // second's motion while nothing has read its image yet).
   size_t rollingShutterRectified() const { return rolling_shutter_.rectified(); }
   size_t rollingShutterNotRectified() const { return rolling_shutter_.notRectified(); }
-  // Of the rectified, those with the tracker's velocity (use_tracker_velocity).
-  size_t rollingShutterFromTrackerVelocity() const { return rolling_shutter_.fromTrackerVelocity(); }
-  // rolling_shutter.from_adjusted_poses: images rectified again (each time counts).
-  size_t rollingShutterRectifiedAgain() const { return rolling_shutter_.rectifiedAgain(); }
-  // Called with a keyframe's id when the mapper replaced its image (rectified
-  // again), before anything reads the new one: an estimator that keeps
-  // images resident by key must forget(id), as for an evicted keyframe.
-  void setForgetImageFunction(std::function<void(int64_t)> forget) { forget_image_ = std::move(forget); }
 
   // Forgets every keyframe and empties the map.
   void reset();
@@ -402,9 +394,6 @@ class OnlineMapper {
     std::map<int64_t, PinholeCamera> stereo_sources;
     PinholeCamera stereo_reference;
     int pose_reestimates = 0;
-    // How often the reference's and the sources' images had been rectified
-    // again when it was estimated (rolling_shutter.from_adjusted_poses).
-    std::map<int64_t, int> image_revisions;
     // Set while it may be fused again with more views (fuseAgain).
     std::optional<Underfused> underfused;
     // Fused against a depth map that a refinement replaced since
@@ -453,13 +442,6 @@ class OnlineMapper {
   size_t requiredConsistencyViews() const;
   // Marks stored keyframe `id` done without depth (a source only).
   void markSourceOnly(int64_t id, KeyframeResult* result);
-  // The rolling-shutter part's planning after a keyframe bundle adjustment,
-  // and its re-rectification (features and resident images follow).
-  void planRectification(const KeyframeBundleAdjustmentResult& adjusted);
-  void rectifyDueAgain();
-  // Whether keyframe `id`'s depth map may still be estimated again
-  // (pose_refinement.max_pose_reestimates).
-  bool reestimatesLeft(int64_t id) const;
   // Drops a keyframe that left the store from every list and cache (not the map).
   struct Forgotten {
     bool was_waiting_for_sources = false;
@@ -505,7 +487,6 @@ class OnlineMapper {
   // Rolling-shutter rectification of the stored images.
   RollingShutterRectifier rolling_shutter_;
   uint64_t estimates_started_ = 0;  // images are read once an estimate has started
-  std::function<void(int64_t)> forget_image_;
 };
 
 }  // namespace amhmvs

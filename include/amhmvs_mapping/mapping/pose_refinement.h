@@ -31,7 +31,6 @@
 #pragma once
 
 #include <cstdint>
-#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -184,18 +183,11 @@ class PoseRefiner {
   // The bundle adjustment of all keyframes (keyframe_bundle_adjustment.h)
   // over the cached features and the matches of every refined or confirmed
   // pair since their keys were cached; `cameras` are the keyframes at the
-  // tracker's poses, by image key (others are left out); `motions`, by the
-  // same keys, the rolling shutters whose velocity is known (none: global);
-  // `velocities`, by the same keys, those whose velocity is solved as well.
-  KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras,
-                                                 const std::map<int64_t, ViewMotion>& motions = {},
-                                                 const std::map<int64_t, VelocityPrior>& velocities = {}) const;
+  // tracker's poses, by image key (others are left out).
+  KeyframeBundleAdjustmentResult adjustKeyframes(const std::map<int64_t, PinholeCamera>& cameras) const;
 
   // Drops the cached features and matches of an image key (its keyframe left the store).
   void forget(int64_t key);
-  // The image of `key` was resampled (rectified again): each cached
-  // feature's pixel p moves to move(p); its descriptor and matches stay.
-  void moveFeatures(int64_t key, const std::function<Eigen::Vector2d(const Eigen::Vector2d&)>& move);
   void forgetAll();
   size_t cachedImages() const;
   const PoseRefinementOptions& options() const { return options_; }

@@ -153,7 +153,7 @@ struct CpuSampler {
     WindowHomography<FloatLanes> H;
     CpuSourceLanes view;
     for (int l = 0; l < kCpuLanes; ++l) {
-      const WindowHomography<float> h = windowHomography<Window::kRollingShutter>(*geometry[l], q[l], x, y);
+      const WindowHomography<float> h = windowHomography(*geometry[l], q[l]);
       for (int k = 0; k < 9; ++k) H.h[k][l] = h.h[k];
       H.width[l] = h.width;
       H.height[l] = h.height;

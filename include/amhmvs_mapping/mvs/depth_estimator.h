@@ -75,10 +75,6 @@ struct DepthProblem {
     ImageViewF depth, normal;   // 1 and 3 channels, the camera's size
   };
   std::optional<CoarserScale> coarser;
-  // Rolling shutters (optional): the reference's motion, and empty or one
-  // per source. Default: global shutters.
-  ViewMotion reference_motion;
-  std::vector<ViewMotion> source_motions;
 
   // Empty when the problem can be solved; otherwise what is wrong (which view,
   // which value).

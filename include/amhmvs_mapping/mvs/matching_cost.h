@@ -55,7 +55,6 @@ struct FixedWindow {
   AMHMVS_HD static constexpr int radius() { return kRadius; }
   AMHMVS_HD static constexpr int step() { return kStep; }
   AMHMVS_HD static constexpr int perAxis() { return 2 * kRadius / kStep + 1; }
-  static constexpr bool kRollingShutter = false;
 };
 using PaperWindow = FixedWindow<5, 2>;
 
@@ -65,35 +64,11 @@ struct RuntimeWindow {
   AMHMVS_HD int radius() const { return radius_; }
   AMHMVS_HD int step() const { return step_; }
   AMHMVS_HD int perAxis() const { return 2 * radius_ / step_ + 1; }
-  static constexpr bool kRollingShutter = false;
-};
-
-// A window shape whose matching cost also sees each row from its own camera
-// centre (rowCentreHomography): the backends run it only for problems with
-// a rolling shutter in motion, so that the others run the global-shutter
-// code unchanged (the check alone cost the GPU 3-5 % per depth map).
-template <class Window>
-struct RollingShutterWindow : Window {
-  using Window::Window;
-  static constexpr bool kRollingShutter = true;
 };
 
 inline bool isPaperWindow(const CostParams& p) {
   return p.window_radius == PaperWindow::radius() && p.window_step == PaperWindow::step();
 }
-
-// Rolling shutters: row y of a view is exposed at tau(y) = a y + c seconds
-// from its middle row, from the camera centre moved by tau(y) v (v the
-// view's velocity in its own frame; the rotation during the readout is
-// rectified in the images beforehand, mapping/rolling_shutter.h). In pixels:
-// ref_velocity = K_r v_r, ref_velocity_in_source = K_s R v_r,
-// source_velocity = K_s v_s (R: reference to source rotation).
-struct RowMotion {
-  bool rolling;
-  float ref_row_a, ref_row_c;
-  float source_row_a, source_row_c;
-  Vec3 ref_velocity, ref_velocity_in_source, source_velocity;
-};
 
 // Geometry of one source view relative to the reference camera:
 // A = K_s R K_r^-1 and b = K_s t, so that H = A - b q^T with q = K_r^-T n / d.
@@ -102,7 +77,6 @@ struct SourceGeometry {
   Vec3 b;
   float width, height;  // in pixels
   int layer;            // which image of the sampler: the view index (CPU) or its pool slot (CUDA)
-  RowMotion rows;       // rolling shutter (rowCentreHomography); rows.rolling false: global shutters
 };
 
 // One reference window sample: its normalised weight and the weight times
@@ -214,37 +188,9 @@ struct WindowHomography {
   F width, height;
 };
 
-// The translation and plane term of a rolling-shutter pixel: reference row
-// y seen from C_r + s_r (s_r = tau_r(y) v_r), source row y' from C_s + s_s.
-// In the row cameras' frames the plane n^T X + d = 0 has distance d + n^T s_r,
-// so q' = q / (1 + tau_r q^T K_r v_r), and the translation is t + R s_r - s_s,
-// so b' = b + tau_r K_s R v_r - tau_s(y') K_s v_s, with y' the source row
-// the pixel (x, y) lands on: a fixed point, since y' depends on tau_s. Each
-// step shrinks its error by about readout/rows x the source's image speed
-// over its depth (~1e-3 for 25 ms over 240 rows at 1 m/s): two steps leave
-// ~1e-6 of the shift (unit test: RollingShutterHomography...).
-AMHMVS_HD void rowCentreHomography(const RowMotion& m, float x, float y, const Mat3& A, Vec3* b, Vec3* q) {
-  const float tau_r = m.ref_row_a * y + m.ref_row_c;
-  *q = reciprocal(1.0f + tau_r * dot(*q, m.ref_velocity)) * *q;
-  const Vec3 ref_moved = *b + tau_r * m.ref_velocity_in_source;
-  const Vec3 p{x, y, 1.0f};
-  const float qp = dot(*q, p);
-  const float ay = A.m[3] * p.x + A.m[4] * p.y + A.m[5], az = A.m[6] * p.x + A.m[7] * p.y + A.m[8];
-  *b = ref_moved;
-  AMHMVS_UNROLL
-  for (int step = 0; step < 2; ++step) {
-    const float source_row = (ay - b->y * qp) / (az - b->z * qp);
-    *b = ref_moved - (m.source_row_a * source_row + m.source_row_c) * m.source_velocity;
-  }
-}
-
-// The homography of pixel (x, y)'s window; with kRollingShutter false the
-// views' row motions are not looked at (global shutters).
-template <bool kRollingShutter = true>
-AMHMVS_HD WindowHomography<float> windowHomography(const SourceGeometry& g, Vec3 q, int x, int y) {
-  Vec3 shifted = g.b;
-  if (kRollingShutter && g.rows.rolling) rowCentreHomography(g.rows, static_cast<float>(x), static_cast<float>(y), g.A, &shifted, &q);
-  const float b[3] = {shifted.x, shifted.y, shifted.z};
+// The homography of one source view for plane term q.
+AMHMVS_HD WindowHomography<float> windowHomography(const SourceGeometry& g, Vec3 q) {
+  const float b[3] = {g.b.x, g.b.y, g.b.z};
   WindowHomography<float> H;
   AMHMVS_UNROLL
   for (int r = 0; r < 3; ++r) {
@@ -328,7 +274,7 @@ AMHMVS_HD float matchingCost(const Sampler& sampler, const CostParams& p,
                              Vec3 q, int x, int y) {
   if (!win.textured) return kMaxCost;
   return windowCost<Window>(sampler.sourceView(g.layer), p, win,
-                            windowHomography<Window::kRollingShutter>(g, q, x, y), x, y);
+                            windowHomography(g, q), x, y);
 }
 
 // The matching costs one pixel needs, evaluated as its sampler prefers: each

@@ -56,23 +56,15 @@ struct PatchMatchParams {
 };
 
 // Calls run(WindowType<W>()) with W the window shape of P's cost options
-// (the paper's, compiled in, or any at run time), as its rolling-shutter
-// variant when a source view or the reference moves during its readout.
+// (the paper's, compiled in, or any at run time).
 template <class Window>
 struct WindowType {
   using type = Window;
 };
 template <class Run>
 void withWindowType(const PatchMatchParams& P, Run&& run) {
-  bool rolling = false;
-  for (int j = 0; j < P.num_sources; ++j) rolling |= P.sources[j].rows.rolling;
-  if (isPaperWindow(P.cost)) {
-    if (rolling) run(WindowType<RollingShutterWindow<PaperWindow>>());
-    else run(WindowType<PaperWindow>());
-  } else {
-    if (rolling) run(WindowType<RollingShutterWindow<RuntimeWindow>>());
-    else run(WindowType<RuntimeWindow>());
-  }
+  if (isPaperWindow(P.cost)) run(WindowType<PaperWindow>());
+  else run(WindowType<RuntimeWindow>());
 }
 
 // Per-pixel state in structure-of-arrays form (device or host pointers).

@@ -59,7 +59,6 @@ struct InputStats {
   uint64_t frames_refused_blurred = 0;        // blurrier than the recent candidates
   uint64_t blurred_frames_taken_anyway = 0;   // after ~max_blurred_in_a_row refusals
   uint64_t keyframes_sent = 0;        // handed to the pipeline
-  uint64_t twists_not_used = 0;       // odometry mode: twist not finite or not in the optical frame (poses used)
   uint64_t dropped_encoding = 0;
   uint64_t dropped_bad_pose = 0;
   uint64_t dropped_bad_camera_info = 0;
@@ -131,7 +130,6 @@ class MappingInputs {
     Eigen::Isometry3d camera_to_world = Eigen::Isometry3d::Identity();
     double min_depth = 0, max_depth = 0;  // 0 = unknown (keyframe mode)
     std::vector<Eigen::Vector3d> sparse_points;  // world frame (keyframe mode)
-    std::optional<amhmvs::CameraVelocity> velocity;  // odometry mode: the twist (rolling shutter)
   };
 
   void keyframeCallback(const amhmvs_mapping::KeyframeConstPtr& msg);
@@ -141,11 +139,9 @@ class MappingInputs {
   void odometryCallback(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
                         const nav_msgs::OdometryConstPtr& odometry);
   void cameraCallback(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info);
-  // A synchronised image + camera_info with its pose (given in pose_frame)
-  // and, where the tracker gives it (odometry twist), the camera's velocity.
+  // A synchronised image + camera_info with its pose (given in pose_frame).
   void offerImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info,
-                  const std::string& pose_frame, const geometry_msgs::Pose& pose,
-                  std::optional<amhmvs::CameraVelocity> velocity = std::nullopt);
+                  const std::string& pose_frame, const geometry_msgs::Pose& pose);
   // Checks a frame, picks keyframes when `pick`, converts and delivers it.
   void offer(Frame frame, const geometry_msgs::Pose& pose, bool pick);
   // The frame's image and camera (downscaled to ~max_image_size) as a core

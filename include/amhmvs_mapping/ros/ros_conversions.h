@@ -10,7 +10,6 @@
 
 #include <Eigen/Geometry>
 #include <geometry_msgs/Pose.h>
-#include <geometry_msgs/Twist.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -38,15 +37,6 @@ std::string imageFromMsg(const sensor_msgs::Image& msg, amhmvs::ImageU8* image);
 // is not 1 (within 1e-3): a non-rigid pose.
 std::string poseFromMsg(const geometry_msgs::Pose& msg, Eigen::Isometry3d* camera_to_world);
 geometry_msgs::Pose poseToMsg(const Eigen::Isometry3d& camera_to_world);
-
-// The camera's velocity from an odometry twist (nav_msgs/Odometry: in
-// child_frame_id), for the rolling-shutter correction. Usable when the twist
-// is in the image's optical frame (`twist_frame` empty or `image_frame`) and
-// finite; an all-zero twist is what trackers send when they do not fill it:
-// no velocity, no complaint. Returns why a twist is not used (the caller
-// then rectifies from the poses).
-std::string velocityFromTwist(const geometry_msgs::Twist& twist, const std::string& twist_frame,
-                              const std::string& image_frame, std::optional<amhmvs::CameraVelocity>* velocity);
 
 // Checks that the CameraInfo matches an image of width x height (its size,
 // K with positive finite focal lengths) and returns the pinhole camera with

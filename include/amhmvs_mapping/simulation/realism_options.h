@@ -21,10 +21,6 @@ struct RealismOptions {
   double pose_noise_deg = 0;  // per-frame jitter: std dev per axis of the rotation vector, degrees
   double pose_drift_m = 0;    // random-walk bias of the position: std dev per axis after 1 s, m/sqrt(s)
   double pose_drift_deg = 0;  // random-walk bias of the rotation: std dev per axis after 1 s, deg/sqrt(s)
-  // The tracker's velocity at each stamp (velocities.txt), the true one plus
-  // independent noise per frame and axis, camera frame:
-  double velocity_noise_rad_s = 0;  // angular, std dev per axis, rad/s
-  double velocity_noise_m_s = 0;    // linear, std dev per axis, m/s
 
   // --- Timing (seconds; a row's time is the frame's stamp + these) ---
   double time_offset_s = 0;      // the image is taken this much after its pose's stamp

@@ -39,10 +39,6 @@ PinholeCamera interpolateCamera(const PinholeCamera& a, const PinholeCamera& b, 
 // before the first and after the last the end segment is extended).
 CameraTrajectory interpolatedTrajectory(std::vector<PinholeCamera> cameras, double frame_period_s);
 
-// The velocity of `trajectory`'s camera of `frame` at `seconds` (central
-// differences over +-1 ms), in that camera's frame.
-CameraVelocity trajectoryVelocity(const CameraTrajectory& trajectory, int frame, double seconds);
-
 // makeSmoothTrajectory(count, width, height, seed) in time, frame i at
 // i * frame_period_s: the path itself between and beyond the frames.
 CameraTrajectory smoothRoomTrajectory(int count, int width, int height, uint32_t seed, double frame_period_s);
@@ -53,13 +49,11 @@ struct FrameDisturbance {
   // axes, about the camera centre), centre c_true + position_error (world).
   Eigen::Vector3d position_error = Eigen::Vector3d::Zero();
   Eigen::Matrix3d rotation_error = Eigen::Matrix3d::Identity();
-  // Written velocity minus the true one at the stamp (camera frame).
-  CameraVelocity velocity_error;
   double gain = 1;    // level = gain * radiance + offset, before noise
   double offset = 0;  // levels
 };
 
-// The disturbances of frames 0..frames-1: pose and velocity noise
+// The disturbances of frames 0..frames-1: pose noise
 // (independent per frame) plus drift (a random walk from zero at frame 0, increments of std dev
 // pose_drift * sqrt(frame_period_s) per axis); gain exp(sigma z) and offset
 // sigma z' with z, z' stationary unit-variance AR(1) processes of
@@ -71,10 +65,6 @@ std::vector<FrameDisturbance> drawFrameDisturbances(const RealismOptions& option
 // The camera the tracker reports: `truth` moved by the disturbance's pose
 // error; `truth` itself, bit for bit, when the error is zero.
 PinholeCamera trackedCamera(const PinholeCamera& truth, const FrameDisturbance& disturbance);
-
-// The velocity a tracker reports for `frame`: the true one at its stamp
-// plus the disturbance's velocity error.
-CameraVelocity trackedVelocity(const CameraTrajectory& trajectory, int frame, const FrameDisturbance& disturbance);
 
 // The sensor's 8-bit level of a pixel channel of mean radiance `radiance`:
 // gain * radiance + offset, plus Gaussian noise of variance noise_sigma^2 +

@@ -292,43 +292,6 @@ TEST(PosedSequence, MvsnetFolderWithGroundTruthDepth) {
   EXPECT_TRUE(sequence.frames[1].ground_truth.registered);
 }
 
-TEST(PosedSequence, MvsnetVelocitiesForEveryViewOrNone) {
-  test::TempDir dir;
-  const std::string root = writeMvsnet(dir);
-  PosedSequenceOptions options;
-  options.frame_period_s = 0.5;
-  EXPECT_FALSE(readPosedSequence(root, options).frames[0].velocity.has_value());  // no file: none
-  CameraVelocity one, three;
-  one.angular = Eigen::Vector3d(0.1, -0.2, 0.3);
-  one.linear = Eigen::Vector3d(0.5, 0, -0.25);
-  three.linear = Eigen::Vector3d(0, 1e-3, 0);
-  writeMvsnetVelocities(root + "/velocities.txt", {{1, one}, {3, three}});
-  const PosedSequence sequence = readPosedSequence(root, options);
-  ASSERT_TRUE(sequence.frames[0].velocity && sequence.frames[1].velocity);
-  EXPECT_LT((sequence.frames[0].velocity->angular - one.angular).norm(), 1e-9);
-  EXPECT_LT((sequence.frames[0].velocity->linear - one.linear).norm(), 1e-9);
-  EXPECT_LT((sequence.frames[1].velocity->linear - three.linear).norm(), 1e-12);
-  // A view left out, or one the folder does not have: refused, by name.
-  writeMvsnetVelocities(root + "/velocities.txt", {{1, one}});
-  EXPECT_INPUT_ERROR(readPosedSequence(root, options), "velocities.txt", "no line for view 3");
-  writeMvsnetVelocities(root + "/velocities.txt", {{1, one}, {3, three}, {7, one}});
-  EXPECT_INPUT_ERROR(readPosedSequence(root, options), "velocities.txt", "view 7 has no image and camera");
-  // Malformed lines name file, line and problem.
-  const struct {
-    const char* text;
-    const char* problem;
-  } bad[] = {
-      {"1 0 0 0 0 0\n3 0 0 0 0 0 0\n", "line 1: expected 7 fields (id wx wy wz vx vy vz), got 6"},
-      {"1 0 0 0 0 0 nan\n3 0 0 0 0 0 0\n", "field 7 'nan' is not a finite number"},
-      {"1 0 0 0 0 0 0\n1 0 0 0 0 0 0\n", "view 1 is listed twice"},
-      {"# ok\n1.5 0 0 0 0 0 0\n", "view id must be an integer >= 0"},
-  };
-  for (const auto& c : bad) {
-    dir.write("mvsnet/velocities.txt", c.text);
-    EXPECT_INPUT_ERROR(readPosedSequence(root, options), "velocities.txt", c.problem);
-  }
-}
-
 TEST(PosedSequence, ColmapWorkspaceInImageIdOrder) {
   test::TempDir dir;
   const std::string root = dir.file("colmap");

@@ -33,18 +33,7 @@ struct Scene {
 // 8 keyframes 10 cm apart looking at points 2-4 m away (a 320x240 camera),
 // the tracker off by 1 cm and 0.3 deg per axis; features are the points'
 // projections with 0.2 px of noise, numbered differently in every keyframe.
-// With `motion` rolling, every keyframe is a rolling shutter, moving so in
-// the even keyframes and the other way in the odd ones (a shaking hand): a
-// feature's row is seen from the centre moved by rowOffset(row), and turned
-// by Exp(-missed_turn tau(row)) (alternating as well): the turn rate that the
-// image's rectification missed.
-ViewMotion motionOf(int64_t id, const ViewMotion& motion) {
-  return {(id % 2 == 0 ? 1.0 : -1.0) * motion.velocity, motion.readout_s};
-}
-Eigen::Vector3d alternating(int64_t id, const Eigen::Vector3d& value) { return (id % 2 == 0 ? 1.0 : -1.0) * value; }
-
-Scene scene(unsigned seed = 11, const ViewMotion& motion = ViewMotion(),
-            const Eigen::Vector3d& missed_turn = Eigen::Vector3d::Zero()) {
+Scene scene(unsigned seed = 11) {
   Scene s;
   std::mt19937 random(seed);
   std::normal_distribution<double> normal(0, 1);
@@ -88,17 +77,7 @@ Scene scene(unsigned seed = 11, const ViewMotion& motion = ViewMotion(),
     std::vector<int> feature_of_point(points.size(), -1);
     for (int p : order) {
       const Eigen::Vector3d in_camera = true_camera.toCamera(points[p]);
-      Eigen::Vector2d exact = true_camera.project(in_camera);
-      const ViewMotion moving = motionOf(id, motion);
-      const Eigen::Vector3d turn = alternating(id, missed_turn);
-      for (int i = 0; i < 5; ++i) {
-        const double tau = moving.rowTimeSlope(camera.height) * exact.y() + moving.rowTimeAtTop(camera.height);
-        const Eigen::Vector3d back = -turn * tau;
-        const Eigen::Matrix3d back_turn =
-            back.norm() > 0 ? Eigen::AngleAxisd(back.norm(), back.normalized()).toRotationMatrix()
-                            : Eigen::Matrix3d::Identity();
-        exact = true_camera.project(back_turn * (in_camera - moving.rowOffset(exact.y(), camera.height)));
-      }
+      const Eigen::Vector2d exact = true_camera.project(in_camera);
       const Eigen::Vector2d pixel = exact + 0.2 * draws(normal, 2).head<2>();
       if (in_camera.z() <= 0 || pixel.x() < 0 || pixel.y() < 0 || pixel.x() > 319 || pixel.y() > 239) continue;
       feature_of_point[p] = static_cast<int>(keyframe.pixels.size());
@@ -259,81 +238,6 @@ TEST(KeyframeBundleAdjustment, CoarseFeaturesWeighByTheirSize) {
     // scene: 0.035-0.102, TracksAcrossKeyframesMakeTheirPosesAgree).
     EXPECT_GT(unweighted.worst_deg, 0.25);
     EXPECT_LT(weighted.worst_deg, 0.17);
-  }
-}
-
-// A rolling shutter moving at 1 m/s over a 30 ms readout sees its top and
-// bottom rows from centres 3 cm apart (1-2 px at 2-4 m), every other
-// keyframe moving the other way. Without the rows' centres the adjustment
-// bends the poses to fit (measured: rms 0.57-0.58 px, worst 0.39-0.44 deg,
-// spread 2.9-3.8 %); with them (BundleKeyframe::motion) it is as good as for
-// a global shutter (0.25 px, 0.043-0.056 deg, 1.0-1.8 %).
-TEST(KeyframeBundleAdjustment, RollingShutterRowsSeenFromTheirOwnCentres) {
-  if (!keyframeBundleAdjustmentAvailable()) GTEST_SKIP() << "this build has no Ceres";
-  const ViewMotion motion{Eigen::Vector3d(0.6, 0.7, 0.4), 0.03};
-  for (unsigned seed : kSeeds) {
-    Scene s = scene(seed, motion);
-    const KeyframeBundleAdjustmentResult ignored =
-        adjustKeyframes(s.keyframes, s.matches, KeyframeBundleAdjustmentSettings());
-    for (auto& entry : s.keyframes) entry.second.motion = motionOf(entry.first, motion);
-    const KeyframeBundleAdjustmentResult modelled =
-        adjustKeyframes(s.keyframes, s.matches, KeyframeBundleAdjustmentSettings());
-    ASSERT_TRUE(ignored.solved && modelled.solved);
-    const RelativeErrors without = relativeErrors(s, ignored.poses), with = relativeErrors(s, modelled.poses);
-    std::printf("seed %u rolling shutter: rms after %.3f px ignored, %.3f modelled; worst %.4f -> %.4f deg, "
-                "spread %.3f -> %.3f %%\n",
-                seed, ignored.rms_after_px, modelled.rms_after_px, without.worst_deg, with.worst_deg,
-                100 * without.worst_spread, 100 * with.worst_spread);
-    EXPECT_LT(modelled.rms_after_px, 0.3);  // the features' own noise
-    EXPECT_GT(ignored.rms_after_px, 0.4);
-    EXPECT_GT(without.worst_deg, 0.3);
-    EXPECT_LT(with.worst_deg, 0.15);  // the global shutter's bounds (test above)
-    EXPECT_LT(with.worst_spread, 0.025);
-  }
-}
-
-// The tracker's velocity off: the images rectified with a turn rate 0.1
-// rad/s off, the rows' centres moved with a velocity 0.15 m/s off. Solved
-// with the tracker's velocity as a prior of that noise (VelocityPrior), the
-// adjustment finds most of the turn rate's error and the relative rotations
-// come out 3-7 times closer. The linear velocity alone is nearly free here:
-// a row's centre shift trades with the poses and the points (even 1.5 m/s
-// off fits the features to their noise), so the prior holds it and it is
-// not asserted.
-TEST(KeyframeBundleAdjustment, TrackersVelocitySolvedWithThePoses) {
-  if (!keyframeBundleAdjustmentAvailable()) GTEST_SKIP() << "this build has no Ceres";
-  const ViewMotion motion{Eigen::Vector3d(0.6, 0.7, 0.4), 0.03};
-  const Eigen::Vector3d missed_turn(0.05, -0.08, 0.03), velocity_error(0.1, -0.1, 0.05);
-  for (unsigned seed : kSeeds) {
-    Scene s = scene(seed, motion, missed_turn);
-    for (auto& entry : s.keyframes) {
-      entry.second.motion = motionOf(entry.first, motion);
-      entry.second.motion.velocity += velocity_error;  // what the tracker says
-    }
-    const KeyframeBundleAdjustmentResult as_given =
-        adjustKeyframes(s.keyframes, s.matches, KeyframeBundleAdjustmentSettings());
-    EXPECT_TRUE(as_given.velocity_corrections.empty());
-    for (auto& entry : s.keyframes) entry.second.velocity = {0.1, 0.15, CameraVelocity()};
-    const KeyframeBundleAdjustmentResult solved =
-        adjustKeyframes(s.keyframes, s.matches, KeyframeBundleAdjustmentSettings());
-    ASSERT_TRUE(as_given.solved && solved.solved);
-    ASSERT_EQ(solved.velocity_corrections.size(), static_cast<size_t>(kKeyframes));
-    double worst_turn = 0, worst_velocity = 0;  // rad/s, m/s
-    for (const auto& [id, correction] : solved.velocity_corrections) {
-      worst_turn = std::max(worst_turn, (correction.angular - alternating(id, missed_turn)).norm());
-      worst_velocity = std::max(worst_velocity, (correction.linear + velocity_error).norm());
-    }
-    const RelativeErrors given = relativeErrors(s, as_given.poses), with = relativeErrors(s, solved.poses);
-    std::printf("seed %u velocity: rms after %.3f px as given, %.3f solved; worst %.4f -> %.4f deg; left of the "
-                "velocity error: %.4f rad/s (of %.4f), %.4f m/s (of %.4f)\n",
-                seed, as_given.rms_after_px, solved.rms_after_px, given.worst_deg, with.worst_deg, worst_turn,
-                missed_turn.norm(), worst_velocity, velocity_error.norm());
-    // Measured: 0.041-0.061 rad/s of the turn's 0.099 left; rms 0.271-0.281
-    // -> 0.246-0.252 px; worst relative rotation 0.435-0.517 -> 0.065-0.171 deg.
-    EXPECT_LT(worst_turn, 0.7 * missed_turn.norm());
-    EXPECT_LT(solved.rms_after_px, 0.26);  // the features' own noise
-    EXPECT_GT(as_given.rms_after_px, solved.rms_after_px + 0.015);
-    EXPECT_LT(with.worst_deg, 0.4 * given.worst_deg);
   }
 }
 

@@ -71,30 +71,4 @@ TEST(MappingConfigDoc, RefinementSectionHasTheDefaults) {
   EXPECT_EQ(documented.size(), 6u);
 }
 
-// config/tracker_with_velocity.yaml (loaded after mapping.yaml) sets only
-// keys that mapping.yaml has, in the same sections, and its pose refinement
-// values parse.
-TEST(MappingConfigDoc, TrackerWithVelocityOverridesExistingKeys) {
-  const std::string overrides = "tracker_with_velocity.yaml";
-  std::ifstream file(std::string(AMHMVS_SOURCE_DIR) + "/config/" + overrides);
-  ASSERT_TRUE(file.good());
-  std::vector<std::string> sections;
-  for (std::string line; std::getline(file, line);)
-    if (!line.empty() && line[0] != ' ' && line[0] != '#') sections.push_back(line.substr(0, line.find(':')));
-  EXPECT_EQ(sections,
-            (std::vector<std::string>{"pose_refinement", "refinement", "rolling_shutter", "fusion", "map"}));
-  for (const std::string& section : sections) {
-    const std::map<std::string, std::string> documented = documentedOptions(section);
-    for (const auto& entry : documentedOptions(section, overrides))
-      EXPECT_TRUE(documented.count(entry.first)) << section << "/" << entry.first << " is not in mapping.yaml";
-  }
-  amhmvs::PoseRefinementOptions parsed;
-  for (const auto& entry : documentedOptions("pose_refinement", overrides))
-    for (const auto& option : amhmvs::poseRefinementOptionTable())
-      if (option.name == entry.first) option.set(parsed, entry.second);
-  EXPECT_TRUE(parsed.keyframe_bundle_adjustment);
-  EXPECT_EQ(parsed.max_features, 2000);
-  EXPECT_EQ(parsed.validate(), "");
-}
-
 }  // namespace

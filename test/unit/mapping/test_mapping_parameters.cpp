@@ -83,16 +83,6 @@ TEST(MappingParameters, ShippedYamlReadsBackToTheDefaults) {
     EXPECT_EQ(parameter.get(read), parameter.get(defaults)) << parameter.name;
 }
 
-TEST(MappingParameters, OverrideFilesUseKnownNamesWithValidValues) {
-  MappingParameters read;
-  applyParameterFile(std::string(AMHMVS_SOURCE_DIR) + "/config/tracker_with_velocity.yaml", &read);
-  EXPECT_TRUE(read.pipeline.mapper.pose_refinement.keyframe_bundle_adjustment);
-  EXPECT_EQ(read.pipeline.mapper.pose_refinement.max_features, 2000);
-  EXPECT_DOUBLE_EQ(read.pipeline.mapper.rolling_shutter.readout_s, 0.025);
-  EXPECT_EQ(read.pipeline.mapper.map.min_points_per_voxel, 3);
-  EXPECT_EQ(read.validate(), "");
-}
-
 TEST(MappingParameters, UnknownNameNamesTheClosest) {
   const std::string path = writeTemporary("typo.yaml", "sources:\n  max_source: 4\n");
   const std::string error = errorOf([&] {

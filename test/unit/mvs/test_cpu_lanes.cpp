@@ -90,14 +90,8 @@ struct SampledProblem {
   std::vector<std::unique_ptr<PaddedImage8>> padded;
   CpuSampler sampler{};
 
-  // rolling: every view a rolling shutter in motion (RowMotion).
-  SampledProblem(int width, int height, int sources, bool rolling = false)
+  SampledProblem(int width, int height, int sources)
       : problem(makeSyntheticProblem(width, height, sources, 5)) {
-    if (rolling) {
-      problem.problem.reference_motion = {Eigen::Vector3d(0.8, -0.3, 0.4), 0.03};
-      for (int j = 0; j < sources; ++j)
-        problem.problem.source_motions.push_back({Eigen::Vector3d(j % 2 ? 0.6 : -0.5, 0.4, 0.2), 0.03});
-    }
     params = makePatchMatchParams(PatchMatchOptions(), problem.problem);
     sampler.reference_image = problem.problem.reference_image;
     for (int j = 0; j < params.num_sources; ++j) {
@@ -151,10 +145,6 @@ void expectBatchedCostsEqualScalar(const SampledProblem& s) {
 
 TEST(CpuLanes, BatchedCostsEqualScalarMatchingCosts) {
   expectBatchedCostsEqualScalar<PaperWindow>(SampledProblem(96, 72, 6));
-  // Rolling shutters: each lane's homography with its pixel row's centres.
-  const SampledProblem rolling(96, 72, 6, true);
-  ASSERT_TRUE(rolling.params.sources[0].rows.rolling);
-  expectBatchedCostsEqualScalar<RollingShutterWindow<PaperWindow>>(rolling);
 }
 
 // The CPU sampler scoring one cost at a time, as the scalar code did.

@@ -367,37 +367,6 @@ TEST(DepthProblemValidate, SourceCount) {
   expectRefused(p, "31 source keys for 32 source views");
 }
 
-TEST(DepthProblemValidate, RollingShutterMotions) {
-  DepthProblem p = goodProblem();
-  p.reference_motion = {Eigen::Vector3d(0.1, 0, 0), 0.03};
-  p.source_motions = {ViewMotion(), {Eigen::Vector3d(0, 0.2, 0), 0.03}};
-  EXPECT_EQ(p.validate(), "");
-  p.source_motions.pop_back();
-  expectRefused(p, "1 source motions for 2 source views");
-  p = goodProblem();
-  p.reference_motion.velocity.x() = std::numeric_limits<double>::quiet_NaN();
-  expectRefused(p, "reference view", "finite velocity");
-  p = goodProblem();
-  p.source_motions = {ViewMotion(), {Eigen::Vector3d(0, 0.2, 0), 1.5}};
-  expectRefused(p, "source view 1", "readout in [0, 1] s");
-}
-
-// tau(y): -readout/2 at the top row, +readout/2 at the bottom; rowTime gives
-// it before the velocity is known, the gated accessors only for a moving view.
-TEST(ViewMotionRowTime, TopMiddleBottomAndGlobalShutter) {
-  const ViewMotion still{Eigen::Vector3d::Zero(), 0.03};
-  EXPECT_DOUBLE_EQ(still.rowTime(0, 241), -0.015);
-  EXPECT_DOUBLE_EQ(still.rowTime(120, 241), 0.0);
-  EXPECT_DOUBLE_EQ(still.rowTime(240, 241), 0.015);
-  EXPECT_EQ(still.rowTimeSlope(241), 0.0);  // not moving: the matching cost sees no readout
-  const ViewMotion moving{Eigen::Vector3d(0.2, 0, 0), 0.03};
-  for (double row : {0.0, 37.5, 240.0})
-    EXPECT_DOUBLE_EQ(moving.rowTime(row, 241), moving.rowTimeSlope(241) * row + moving.rowTimeAtTop(241));
-  EXPECT_DOUBLE_EQ(moving.rowOffset(240, 241).x(), 0.2 * 0.015);
-  EXPECT_EQ(ViewMotion().rowTime(240, 241), 0.0);  // global shutter
-  EXPECT_EQ(still.rowTime(0, 1), 0.0);             // one row: no readout to spread
-}
-
 TEST(DepthProblemValidate, DepthRange) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double ranges[][2] = {{5, 5}, {10, 1}, {nan, 10}, {1, nan}, {0, 10}, {-1, 10}};

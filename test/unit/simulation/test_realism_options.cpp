@@ -30,8 +30,6 @@ TEST(RealismOptions, NoneIsTheExactRenderDefaultTurnsEveryEffectOn) {
   EXPECT_EQ(profile.pose_noise_deg, 0.3);
   EXPECT_GT(profile.pose_drift_m, 0);
   EXPECT_GT(profile.pose_drift_deg, 0);
-  EXPECT_EQ(profile.velocity_noise_rad_s, 0.01);
-  EXPECT_EQ(profile.velocity_noise_m_s, 0.03);
   EXPECT_EQ(profile.time_offset_s, 0.008);
   EXPECT_EQ(profile.rolling_shutter_s, 0.025);
   EXPECT_GT(profile.motion_blur_s, 0);
@@ -70,8 +68,6 @@ TEST(RealismOptions, InvalidValuesAreNamedInTheCheck) {
       {[](RealismOptions& o, double) { o.pose_noise_deg = 90; }, "pose_noise_deg must be in [0, 45] degrees, got 90"},
       {[](RealismOptions& o, double) { o.pose_drift_m = -0.1; }, "pose_drift_m must be in [0, 1] m/sqrt(s)"},
       {[](RealismOptions& o, double v) { o.pose_drift_deg = v; }, "pose_drift_deg must be in [0, 45] deg/sqrt(s)"},
-      {[](RealismOptions& o, double v) { o.velocity_noise_rad_s = v; }, "velocity_noise_rad_s must be in [0, 10] rad/s"},
-      {[](RealismOptions& o, double) { o.velocity_noise_m_s = -1; }, "velocity_noise_m_s must be in [0, 10] m/s, got -1"},
       {[](RealismOptions& o, double) { o.time_offset_s = 2; }, "time_offset_s must be in [-1, 1] seconds, got 2"},
       {[](RealismOptions& o, double) { o.rolling_shutter_s = -0.01; }, "rolling_shutter_s must be in [0, 1] seconds"},
       {[](RealismOptions& o, double v) { o.motion_blur_s = v; }, "motion_blur_s must be in [0, 1] seconds, got nan"},

@@ -362,45 +362,5 @@ TEST(RealisticCapture, InterpolatedPosesMoveAlongTheShortestRotation) {
   EXPECT_EQ(room(1, 0.5).t, frames[2].t);  // frame 1 + one period is frame 2
 }
 
-// A camera that turns at a constant rate in its own frame and moves at a
-// constant world velocity: the velocity in the camera frame is known exactly.
-TEST(RealisticCapture, TrajectoryVelocityIsTheCamerasOwnTurnRateAndSpeed) {
-  const PinholeCamera start = makeSmoothTrajectory(2, 64, 48, 1)[0];
-  const Eigen::Vector3d turn_rate(0.3, -0.8, 0.2), world_velocity(0.5, 0.1, -0.4);
-  const CameraTrajectory path = [&](int, double seconds) {
-    PinholeCamera c = start;
-    const Eigen::Matrix3d camera_to_world =
-        start.R.transpose() * Eigen::AngleAxisd(turn_rate.norm() * seconds, turn_rate.normalized()).toRotationMatrix();
-    c.R = camera_to_world.transpose();
-    c.t = -c.R * (start.center() + world_velocity * seconds);
-    return c;
-  };
-  const CameraVelocity v = trajectoryVelocity(path, 0, 0.3);
-  EXPECT_LT((v.angular - turn_rate).norm(), 1e-6);
-  EXPECT_LT((v.linear - path(0, 0.3).R * world_velocity).norm(), 1e-9);
-  // The tracker's: the truth at the stamp plus exactly the drawn error.
-  FrameDisturbance d;
-  d.velocity_error.angular = Eigen::Vector3d(0.01, 0, -0.02);
-  d.velocity_error.linear = Eigen::Vector3d(0, 0.05, 0);
-  const CameraVelocity tracked = trackedVelocity(path, 0, d);
-  EXPECT_LT((tracked.angular - turn_rate - d.velocity_error.angular).norm(), 1e-6);
-  EXPECT_LT((tracked.linear - start.R * world_velocity - d.velocity_error.linear).norm(), 1e-9);
-}
-
-TEST(RealisticCapture, VelocityNoiseHasTheStatisticsOfTheOptions) {
-  RealismOptions options;
-  options.velocity_noise_rad_s = 0.02;
-  options.velocity_noise_m_s = 0.05;
-  const int frames = 4000;
-  const std::vector<FrameDisturbance> d = drawFrameDisturbances(options, frames, 0.1);
-  expectWhiteNoise(d, 0.02, "angular velocity", [](const FrameDisturbance& f) { return f.velocity_error.angular; });
-  expectWhiteNoise(d, 0.05, "linear velocity", [](const FrameDisturbance& f) { return f.velocity_error.linear; });
-  // Pose noise alone leaves the velocities exact.
-  RealismOptions pose_only;
-  pose_only.pose_noise_m = 0.01;
-  const std::vector<FrameDisturbance> exact = drawFrameDisturbances(pose_only, 5, 0.1);
-  EXPECT_TRUE(exact[3].velocity_error.angular.isZero(0) && exact[3].velocity_error.linear.isZero(0));
-}
-
 }  // namespace
 }  // namespace amhmvs

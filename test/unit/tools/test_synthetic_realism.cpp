@@ -109,8 +109,7 @@ TEST(SyntheticRealism, WritesTheTrackersPosesBesideTheExactTruth) {
   const test::CommandResult r = test::runTool("amhmvs_synthetic", out + options);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("realism, mean per frame: written pose"), std::string::npos) << r.output;
-  EXPECT_EQ(entries(out), (std::set<std::string>{"cams", "cams_gt", "depth_gt", "images", "pair.txt", "realism.txt",
-                                                 "velocities.txt"}));
+  EXPECT_EQ(entries(out), (std::set<std::string>{"cams", "cams_gt", "depth_gt", "images", "pair.txt", "realism.txt"}));
   EXPECT_NE(bytesOf(out + "/realism.txt").find("\npose_noise_m 0.01\n"), std::string::npos);
 
   // The same model in the core, with the tool's defaults (frame period 0.5 s, realism seed = --seed).
@@ -139,18 +138,8 @@ TEST(SyntheticRealism, WritesTheTrackersPosesBesideTheExactTruth) {
     }
   }
 
-  // velocities.txt: the tracker's velocity at each stamp (the truth's plus the drawn error).
-  const std::map<int, CameraVelocity> velocities = readMvsnetVelocities(out + "/velocities.txt");
-  ASSERT_EQ(velocities.size(), static_cast<size_t>(views));
-  for (int v = 0; v < views; ++v) {
-    const CameraVelocity want = trackedVelocity(trajectory, v, disturbances[v]);
-    EXPECT_LT((velocities.at(v).angular - want.angular).norm(), 1e-6) << v;
-    EXPECT_LT((velocities.at(v).linear - want.linear).norm(), 1e-6) << v;
-    EXPECT_GT(disturbances[v].velocity_error.linear.norm(), 0) << v;
-  }
-
   // amhmvs_map's reader: the written poses are the frames' cameras (the
-  // tracker's), cams_gt/ their true ones, velocities.txt their velocities.
+  // tracker's), cams_gt/ their true ones.
   const PosedSequence sequence = readPosedSequence(out);
   ASSERT_EQ(sequence.frames.size(), static_cast<size_t>(views));
   for (int v = 0; v < views; ++v) {
@@ -159,8 +148,6 @@ TEST(SyntheticRealism, WritesTheTrackersPosesBesideTheExactTruth) {
     ASSERT_TRUE(frame.true_camera) << v;
     EXPECT_EQ(frame.true_camera->t, readCam(out + "/cams_gt/" + camName(v)).t);
     EXPECT_EQ(frame.true_camera->R, readCam(out + "/cams_gt/" + camName(v)).R);
-    ASSERT_TRUE(frame.velocity) << v;
-    EXPECT_EQ(frame.velocity->linear, velocities.at(v).linear);
     EXPECT_EQ(frame.true_camera->width, width);
     EXPECT_TRUE(frame.ground_truth.present());
   }
