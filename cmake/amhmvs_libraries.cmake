@@ -39,6 +39,13 @@ if(AMHMVS_WITH_CUDA)
 endif()
 message(STATUS "amhmvs: CUDA backend ${AMHMVS_HAVE_CUDA} (architectures: ${AMHMVS_CUDA_ARCHITECTURES})")
 
+# Headers most C++ files of every layer include, parsed once per target
+# (not for the CUDA files: nvcc takes no precompiled header).
+set(AMHMVS_PRECOMPILED_HEADERS)
+foreach(header Eigen/Core Eigen/Geometry functional map memory string vector)
+  list(APPEND AMHMVS_PRECOMPILED_HEADERS "$<$<COMPILE_LANGUAGE:CXX>:<${header}>>")
+endforeach()
+
 # amhmvs_add_layer(NAME [STATIC] SOURCES ... DEPENDS ...): one layer's library.
 # Its private headers (src/<layer>/*.h) are included as "<layer>/name.h" by
 # the CUDA files of cuda/, which are compiled into the layer they implement.
@@ -60,6 +67,7 @@ function(amhmvs_add_layer name)
   if(type STREQUAL SHARED_LIBRARY AND NOT AMHMVS_SANITIZERS)
     target_link_options(amhmvs_${name} PRIVATE LINKER:--no-undefined)
   endif()
+  target_precompile_headers(amhmvs_${name} PRIVATE ${AMHMVS_PRECOMPILED_HEADERS})
   target_compile_options(amhmvs_${name} PRIVATE
     $<$<COMPILE_LANGUAGE:CXX>:-Wall -Wextra>
     $<$<COMPILE_LANGUAGE:CUDA>:--expt-relaxed-constexpr -diag-suppress=20012 -lineinfo>)

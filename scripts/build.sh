@@ -33,6 +33,8 @@ fi
 args+=(-DAMHMVS_CUDA_ARCHITECTURES="$AMHMVS_CUDA_ARCHITECTURES")
 # ccache, when installed, makes rebuilds in several checkouts cheap.
 if command -v ccache >/dev/null; then
+  # what lets ccache cache the files compiled with a precompiled header
+  export CCACHE_SLOPPINESS=${CCACHE_SLOPPINESS:-pch_defines,time_macros,include_file_mtime,include_file_ctime}
   args+=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_CUDA_COMPILER_LAUNCHER=ccache)
 fi
 cmake -S "$here" -B "$build" "${args[@]}" > "$build/configure.log" 2>&1 || { cat "$build/configure.log"; exit 1; }

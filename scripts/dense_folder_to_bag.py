@@ -8,10 +8,6 @@ with the topics of the bags in ../shared/data/bags, plus ground-truth depth:
   /tf                  tf2_msgs/TFMessage, world -> camera_optical
   /camera/depth_gt     sensor_msgs/Image 32FC1, z-depth in metres, NaN = nothing
                        (only when DENSE_DIR/depth_gt/ exists)
-  /camera/odom         nav_msgs/Odometry: the pose as on /camera/pose and the
-                       tracker's velocity as its twist, in child_frame_id
-                       camera_optical (only when DENSE_DIR/velocities.txt exists:
-                       amhmvs_synthetic --realism writes it)
 
 View N gets the stamp START + N * PERIOD. The output depends only on the
 folder and the options (no wall-clock time), so equal inputs give equal bags.
@@ -28,7 +24,6 @@ import numpy as np
 import rosbag
 import rospy
 from geometry_msgs.msg import PoseStamped, TransformStamped
-from nav_msgs.msg import Odometry
 from sensor_msgs.msg import CameraInfo, Image
 from tf2_msgs.msg import TFMessage
 
@@ -136,34 +131,6 @@ def pose_and_tf(camera_to_world, index, stamp):
     return pose, TFMessage(transforms=[transform])
 
 
-def read_velocities(path):
-    """{view id: (angular xyz rad/s, linear xyz m/s)} of an MVSNet folder's
-    velocities.txt (camera frame; '#' lines are comments)."""
-    velocities = {}
-    for number, line in enumerate(open(path), 1):
-        words = line.split()
-        if not words or words[0].startswith("#"):
-            continue
-        try:
-            values = [float(w) for w in words[1:]]
-            view = int(words[0])
-        except ValueError as error:
-            sys.exit(f"{path}:{number}: {error}")
-        if len(values) != 6:
-            sys.exit(f"{path}:{number}: expected an id and 6 numbers, got {len(words)} words")
-        velocities[view] = (values[:3], values[3:])
-    return velocities
-
-
-def odometry_msg(pose, angular, linear):
-    """nav_msgs/Odometry of a PoseStamped, with the twist in the optical frame."""
-    odometry = Odometry(header=pose.header, child_frame_id=OPTICAL_FRAME)
-    odometry.pose.pose = pose.pose
-    odometry.twist.twist.angular.x, odometry.twist.twist.angular.y, odometry.twist.twist.angular.z = angular
-    odometry.twist.twist.linear.x, odometry.twist.twist.linear.y, odometry.twist.twist.linear.z = linear
-    return odometry
-
-
 def view_names(dense_dir):
     names = sorted(name[:-len("_cam.txt")] for name in os.listdir(os.path.join(dense_dir, "cams"))
                    if name.endswith("_cam.txt"))
@@ -183,8 +150,6 @@ def main():
     names = view_names(args.dense_dir)
     depth_dir = os.path.join(args.dense_dir, "depth_gt")
     with_depth = os.path.isdir(depth_dir)
-    velocities_path = os.path.join(args.dense_dir, "velocities.txt")
-    velocities = read_velocities(velocities_path) if os.path.isfile(velocities_path) else None
     with bag_written_atomically(args.bag) as bag:
         for index, name in enumerate(names):
             image_path = os.path.join(args.dense_dir, "images", name + ".png")
@@ -201,11 +166,6 @@ def main():
 
             bag.write("/tf", tf, stamp)
             bag.write("/camera/pose", pose, stamp)
-            if velocities is not None:
-                view = int(name)
-                if view not in velocities:
-                    sys.exit(f"{velocities_path}: no velocity of view {view}")
-                bag.write("/camera/odom", odometry_msg(pose, *velocities[view]), stamp)
             bag.write("/camera/camera_info", camera_info_msg(intrinsic, width, height, header), stamp)
             bag.write("/camera/image_raw", image_msg(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), "rgb8", header), stamp)
             if with_depth:
@@ -214,8 +174,7 @@ def main():
                     sys.exit(f"{depth_dir}/{name}.pfm: {depth.shape[1]}x{depth.shape[0]}, image is {width}x{height}")
                 bag.write("/camera/depth_gt", image_msg(depth, "32FC1", header), stamp)
     print(f"wrote {args.bag}: {len(names)} views, {width}x{height}, {args.period} s apart"
-          f"{', with /camera/depth_gt' if with_depth else ''}"
-          f"{', with /camera/odom (velocities)' if velocities is not None else ''}")
+          f"{', with /camera/depth_gt' if with_depth else ''}")
 
 
 if __name__ == "__main__":

@@ -8,7 +8,6 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/core/stopwatch.h"
-#include "amhmvs_mapping/mapping/keyframe_pose_graph.h"
 #include "amhmvs_mapping/mapping/map_export.h"
 #include "amhmvs_mapping/mapping/refinement_evidence.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
@@ -322,8 +321,10 @@ void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult
     // The sources' cameras of this problem only; the store keeps the tracker's.
     start = Clock::now();
     result->pose_refinement = pose_refiner_->refine(&problem);
-    recordRefinedPoses(id, problem, result->pose_refinement);
-    if (!options_.pose_refinement.keyframe_bundle_adjustment || !adjustKeyframePoses(id, &problem)) correctMapPoses();
+    poses_.record(id, problem, result->pose_refinement);
+    if (!options_.pose_refinement.keyframe_bundle_adjustment ||
+        !poses_.adjust(id, *pose_refiner_, store_, &problem, &map_))
+      poses_.solvePoseGraph(store_, options_.pose_refinement, &map_);
     result->times.pose_refinement_ms = millisecondsSince(start);
   }
   start = Clock::now();
@@ -397,8 +398,7 @@ OnlineMapper::Forgotten OnlineMapper::forgetKeyframe(int64_t id) {
   Forgotten forgotten;
   records_.erase(id);
   if (pose_refiner_) pose_refiner_->forget(id);
-  refined_poses_.forget(id);
-  map_poses_.erase(id);  // its points stay in the map where they are
+  poses_.forget(id);  // its points stay in the map where they are
   const auto without_depth = std::find(waiting_for_sources_.begin(), waiting_for_sources_.end(), id);
   if (without_depth != waiting_for_sources_.end()) {
     waiting_for_sources_.erase(without_depth);
@@ -509,71 +509,17 @@ void OnlineMapper::fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResul
     noteEvicted(store_.attachPoints(id, fused.points), result);
     result->times.store_ms += millisecondsSince(start);
     start = Clock::now();
-    addToMap(id, fused.points);  // replaces
+    map_.add(id, poses_.mapPose(id, store_), fused.points, options_.map_in_background);  // replaces
   } else {
     start = Clock::now();
-    finishMapWork();
-    if (map_.contains(id)) {
-      map_.removeKeyframe(id);  // the refined depth map confirms nothing of the old points
-      noteMapChanged();
-    }
+    map_.remove(id);  // the refined depth map confirms nothing of the old points
   }
   result->times.map_ms += millisecondsSince(start);
   if (id == result->id) result->fused_now = true;
   result->fused.push_back(std::move(fused));
 }
 
-void OnlineMapper::addToMap(int64_t id, Shared<KeyframePoints> points) {
-  finishMapWork();  // one update at a time, in order
-  const Eigen::Isometry3d pose = mapPose(id);
-  std::function<MapUpdateRecord()> update = [this, id, pose, points = std::move(points)]() {
-    const Clock::time_point start = Clock::now();
-    MapUpdateRecord record;
-    record.id = id;
-    record.update = map_.addKeyframe(id, pose, points);
-    record.milliseconds = millisecondsSince(start);
-    return record;
-  };
-  if (options_.map_in_background) {
-    if (!map_worker_) map_worker_.reset(new SerialWorker());
-    map_work_ = map_worker_->submit(std::move(update));
-    ++map_revision_;  // the voxel count follows when the update finishes
-  } else {
-    finished_map_updates_.push_back(update());
-    noteMapChanged();
-  }
-}
-
-void OnlineMapper::noteMapChanged() {
-  map_voxel_count_ = map_.voxelCount();
-  ++map_revision_;
-}
-
-void OnlineMapper::finishMapWork() const {
-  if (!map_work_.valid()) return;
-  MapUpdateRecord record = map_work_.get();  // rethrows what the update threw
-  finished_map_updates_.push_back(std::move(record));
-  map_voxel_count_ = map_.voxelCount();
-}
-
-const VoxelMap& OnlineMapper::map() const {
-  finishMapWork();
-  return map_;
-}
-
-std::vector<MapUpdateRecord> OnlineMapper::takeMapUpdates() {
-  std::vector<MapUpdateRecord> taken;
-  taken.swap(finished_map_updates_);
-  return taken;
-}
-
-OnlineMapper::~OnlineMapper() {
-  try {
-    finishMapWork();
-  } catch (...) {
-    // Nothing to report to at destruction; the map is discarded anyway.
-  }
-}
+OnlineMapper::~OnlineMapper() = default;  // map_ waits for its update in flight
 
 size_t OnlineMapper::consistencyViewCap() const {
   return static_cast<size_t>(
@@ -604,65 +550,9 @@ std::vector<FusionView> OnlineMapper::consistencyFusionViews(int64_t id, const s
   std::vector<FusionView> views;
   for (int64_t view : view_ids) {
     views.push_back(fusionView(static_cast<int>(views.size()), store_.entry(view)));
-    if (refined) refined_poses_.place(id, camera, view, &views.back().camera);
+    if (refined) poses_.placeView(id, camera, view, &views.back().camera);
   }
   return views;
-}
-
-void OnlineMapper::recordRefinedPoses(int64_t id, const DepthProblem& problem,
-                                      const PoseRefinementResult& refinement) {
-  for (size_t i = 0; i < refinement.sources.size() && i < problem.source_keys.size(); ++i) {
-    const SourcePoseOutcome outcome = refinement.sources[i].outcome;
-    if (outcome == SourcePoseOutcome::kRefined || outcome == SourcePoseOutcome::kConfirmed)
-      refined_poses_.record(id, problem.reference_camera, problem.source_keys[i], problem.source_cameras[i]);
-    else
-      refined_poses_.drop(id, problem.source_keys[i]);
-  }
-}
-
-Eigen::Isometry3d OnlineMapper::mapPose(int64_t id) const {
-  const auto corrected = map_poses_.find(id);
-  return corrected != map_poses_.end() ? corrected->second : store_.keyframe(id).cameraToWorld();
-}
-
-void OnlineMapper::correctMapPoses() {
-  const PoseRefinementOptions& options = options_.pose_refinement;
-  if (!options.correct_map_poses) return;
-  std::map<int64_t, Eigen::Isometry3d> tracker_poses;
-  for (int64_t id : store_.ids()) tracker_poses[id] = store_.keyframe(id).cameraToWorld();
-  std::vector<KeyframePoseGraphEdge> edges;
-  for (const auto& pair : refined_poses_.pairs()) edges.push_back({pair.first.first, pair.first.second, pair.second});
-  constexpr double kDegree = M_PI / 180;
-  KeyframePoseGraphSettings settings;
-  settings.prior_position_sigma_m = options.prior_position_sigma_m;
-  settings.prior_rotation_sigma_rad = options.prior_rotation_sigma_deg * kDegree;
-  settings.rotation_sigma_rad = options.graph_rotation_sigma_deg * kDegree;
-  settings.direction_sigma_rad = options.graph_direction_sigma_deg * kDegree;
-  map_poses_ = solveKeyframePoseGraph(tracker_poses, edges, settings);
-  placeMapPoses();
-}
-
-bool OnlineMapper::adjustKeyframePoses(int64_t id, DepthProblem* problem) {
-  std::map<int64_t, PinholeCamera> cameras;
-  for (int64_t stored : store_.ids()) cameras[stored] = store_.keyframe(stored).camera;
-  const KeyframeBundleAdjustmentResult adjusted = pose_refiner_->adjustKeyframes(cameras);
-  if (!adjusted.solved) return false;
-  // Every refined pair of two adjusted keyframes at their adjusted relative pose.
-  std::vector<std::pair<int64_t, int64_t>> pairs;
-  for (const auto& pair : refined_poses_.pairs()) pairs.push_back(pair.first);
-  for (const auto& pair : pairs) {
-    const auto first = adjusted.poses.find(pair.first), second = adjusted.poses.find(pair.second);
-    if (first == adjusted.poses.end() || second == adjusted.poses.end()) continue;
-    PinholeCamera reference = cameras.at(pair.first), source = cameras.at(pair.second);
-    setCameraToWorld(first->second, &reference);
-    setCameraToWorld(second->second, &source);
-    refined_poses_.record(pair.first, reference, pair.second, source);
-  }
-  for (size_t s = 0; s < problem->source_keys.size(); ++s)
-    refined_poses_.place(id, problem->reference_camera, problem->source_keys[s], &problem->source_cameras[s]);
-  map_poses_ = adjusted.poses;
-  placeMapPoses();
-  return true;
 }
 
 bool OnlineMapper::stereoPosesMoved(int64_t id, const KeyframeRecord& record) const {
@@ -677,7 +567,7 @@ bool OnlineMapper::stereoPosesMoved(int64_t id, const KeyframeRecord& record) co
     return false;
   for (const auto& [source, used] : record.stereo_sources) {
     PinholeCamera now = used;
-    if (!store_.contains(source) || !refined_poses_.place(id, record.stereo_reference, source, &now)) continue;
+    if (!store_.contains(source) || !poses_.placeView(id, record.stereo_reference, source, &now)) continue;
     const Eigen::Matrix3d turn = now.R * used.R.transpose();
     const Eigen::Vector3d used_centre = record.stereo_reference.R * used.center() + record.stereo_reference.t;
     const Eigen::Vector3d now_centre = record.stereo_reference.R * now.center() + record.stereo_reference.t;
@@ -689,27 +579,6 @@ bool OnlineMapper::stereoPosesMoved(int64_t id, const KeyframeRecord& record) co
       return true;
   }
   return false;
-}
-
-void OnlineMapper::placeMapPoses() {
-  // Each solve moves every keyframe a little; re-posing all points for
-  // changes far below the map's voxels would cost more than the pose
-  // refinement itself: a keyframe moves when it is off by 1 mm or 1e-4 rad
-  // (0.5 mm at 5 m), else it stays where it is placed.
-  constexpr double kMinShiftM = 1e-3, kMinTurnRad = 1e-4;
-  finishMapWork();
-  for (auto& entry : map_poses_) {
-    if (!map_.contains(entry.first)) continue;
-    const Eigen::Isometry3d& placed = map_.pose(entry.first);
-    const bool moved = (placed.translation() - entry.second.translation()).norm() >= kMinShiftM ||
-                       Eigen::AngleAxisd(placed.linear().transpose() * entry.second.linear()).angle() >= kMinTurnRad;
-    if (!moved) {
-      entry.second = placed;
-      continue;
-    }
-    map_.updatePose(entry.first, entry.second);
-    noteMapChanged();
-  }
 }
 
 PublishedDepth OnlineMapper::publish(int64_t id, const std::vector<int64_t>& view_ids) const {
@@ -738,14 +607,10 @@ bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_wor
   if (!problem.empty()) throw InputError("keyframe " + std::to_string(id) + ": " + problem);
   const bool stored = store_.contains(id);
   if (stored) store_.updatePose(id, camera_to_world);
-  map_poses_.erase(id);  // the next pose graph starts from the new pose
+  poses_.dropCorrection(id);
   for (auto& [other, record] : records_)  // views follow the poses
     if (record.underfused) record.underfused->views_checked = false;
-  finishMapWork();
-  if (!map_.contains(id)) return stored;
-  map_.updatePose(id, camera_to_world);
-  noteMapChanged();
-  return true;
+  return map_.updatePose(id, camera_to_world) || stored;
 }
 
 void OnlineMapper::reset() {
@@ -759,16 +624,8 @@ void OnlineMapper::reset() {
   fusion_deferred_ = false;
   undelivered_ = KeyframeResult();
   if (pose_refiner_) pose_refiner_->forgetAll();
-  refined_poses_.clear();
-  map_poses_.clear();
-  try {
-    finishMapWork();
-  } catch (const std::exception&) {
-    // The map is emptied anyway.
-  }
-  finished_map_updates_.clear();
-  map_ = VoxelMap(options_.map);
-  noteMapChanged();
+  poses_.clear();
+  map_.reset(options_.map);
 }
 
 void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
@@ -776,24 +633,21 @@ void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
   if (!problems.empty()) throw InputError("online mapper options:\n" + problems);
   OnlineMapperOptions kept = options;
   kept.store = options_.store;
-  finishMapWork();
+  const VoxelMap& map = map_.map();  // after the update in flight
   if (options.map.leaf_size != options_.map.leaf_size) {
     // A new voxel size: rebuild the map from the stored keyframes' points.
     VoxelMapOptions map_options = options_.map;
     map_options.leaf_size = options.map.leaf_size;
     VoxelMap rebuilt(map_options);
-    for (int64_t id : map_.keyframeIds()) {
+    for (int64_t id : map.keyframeIds()) {
       if (!store_.contains(id)) continue;
-      rebuilt.addKeyframe(id, map_.pose(id), store_.entry(id).points);
+      rebuilt.addKeyframe(id, map.pose(id), store_.entry(id).points);
     }
-    map_ = std::move(rebuilt);
-    noteMapChanged();
+    map_.replace(std::move(rebuilt));
   }
-  if (options.map.min_points_per_voxel != map_.options().min_points_per_voxel) {
+  if (options.map.min_points_per_voxel != map_.map().options().min_points_per_voxel)
     map_.setMinPointsPerVoxel(options.map.min_points_per_voxel);  // what is published, not the voxels
-    noteMapChanged();
-  }
-  kept.map = map_.options();
+  kept.map = map_.map().options();
   for (auto& entry : records_) entry.second.selection_checked_at = KeyframeRecord::kNeverChecked;  // new criteria
   if (!options.pose_refinement.enabled) {
     pose_refiner_.reset();

@@ -25,17 +25,9 @@ struct ReprojectionResidual {
 
   template <typename T>
   bool operator()(const T* w, const T* dc, const T* point, T* residual) const {
-    return pixelResidual(inCamera(w, dc, point), residual);
-  }
-  // The point in the corrected camera's frame.
-  template <typename T>
-  Vector3<T> inCamera(const T* w, const T* dc, const T* point) const {
     const Vector3<T> offset(point[0] - (T(centre[0]) + dc[0]), point[1] - (T(centre[1]) + dc[1]),
                             point[2] - (T(centre[2]) + dc[2]));
-    return correctedRotation(w, rotation).transpose() * offset;
-  }
-  template <typename T>
-  bool pixelResidual(const Vector3<T>& in_camera, T* residual) const {
+    const Vector3<T> in_camera = correctedRotation(w, rotation).transpose() * offset;
     if (!(in_camera[2] > T(0))) return false;  // behind the camera: the step is refused
     residual[0] = (T(fx) * in_camera[0] / in_camera[2] + T(cx) - T(pixel.x())) * T(inverse_sigma);
     residual[1] = (T(fy) * in_camera[1] / in_camera[2] + T(cy) - T(pixel.y())) * T(inverse_sigma);

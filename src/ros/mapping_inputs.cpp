@@ -49,7 +49,7 @@ MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const Ma
   keyframe_poses_sub_ = nh.subscribe("keyframe_poses", 10, &MappingInputs::keyframePosesCallback, this);
   if (config_.node.input_mode == "keyframe") {
     keyframe_sub_ = nh.subscribe("keyframe", 10, &MappingInputs::keyframeCallback, this);
-    watch(keyframe_sub_.getTopic(), [this] { return keyframe_sub_.getNumPublishers(); });
+    frame_topic_ = watch(keyframe_sub_.getTopic(), [this] { return keyframe_sub_.getNumPublishers(); });
     return;
   }
   it_.reset(new image_transport::ImageTransport(nh));
@@ -61,7 +61,7 @@ MappingInputs::MappingInputs(ros::NodeHandle& nh, ros::NodeHandle& pnh, const Ma
       *it_, nh.resolveName("image"), q, image_transport::TransportHints("raw", ros::TransportHints(), pnh)));
   info_filter_.reset(new message_filters::Subscriber<sensor_msgs::CameraInfo>(nh, "camera_info", q));
   // Arrivals of each topic, before synchronisation (what is silent?).
-  watchFilter(*image_filter_);
+  frame_topic_ = watchFilter(*image_filter_);
   watchFilter(*info_filter_);
   const ros::Duration max_interval(config_.node.sync_max_interval);
   if (config_.node.input_mode == "pose") {
@@ -150,9 +150,9 @@ std::vector<std::pair<std::string, uint64_t>> MappingInputs::messagesReceived() 
 uint64_t MappingInputs::imagesNotSynchronised() const {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   if (!image_filter_ || topics_.empty()) return 0;  // keyframe mode: one message is one frame
-  // topics_[0] is the image filter (the first watched); a frame is counted
-  // once it leaves the synchroniser (and, in tf mode, the transform's wait).
-  const uint64_t images = topics_[0].messages;
+  // A frame is counted once it leaves the synchroniser (and, in tf mode, the
+  // transform's wait).
+  const uint64_t images = topics_[frame_topic_].messages;
   const uint64_t frames = stats_.frames_received + stats_.dropped_missing_tf;
   return images > frames ? images - frames : 0;
 }
@@ -210,8 +210,8 @@ void MappingInputs::noteSynchronised() {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   last_synchronised_ = ros::WallTime::now();
   if (keyframe_sub_) {  // keyframe mode: the one topic
-    topics_[0].last_arrival = last_synchronised_;
-    ++topics_[0].messages;
+    topics_[frame_topic_].last_arrival = last_synchronised_;
+    ++topics_[frame_topic_].messages;
   }
 }
 

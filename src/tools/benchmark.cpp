@@ -608,19 +608,14 @@ int main(int argc, char** argv) {
       online += mapCorrectionTable(std::max(runs, 5));
       save();
     }
-    if (only.empty() ? !quick : wants("replay")) online += replayTable(replay_count, !map_foreground, pipeline_multiscale);
+    if (only.empty() ? !quick : wants("replay")) {
+      online += replayTable(replay_count, !map_foreground, pipeline_multiscale);
+      save();
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "amhmvs_benchmark: %s\n", e.what());
     return 1;
   }
-
-  const std::string tables = renderTables(gpu ? device : "none (CPU only)", rows, online);
-  std::printf("%s", tables.c_str());
-  try {
-    writeFileAtomically(out_path, tables, "benchmark tables");
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "amhmvs_benchmark: %s\n", e.what());
-    return 1;
-  }
+  std::printf("%s", renderTables(gpu ? device : "none (CPU only)", rows, online).c_str());
   return 0;
 }

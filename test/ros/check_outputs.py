@@ -331,7 +331,8 @@ class ReplayOutputs(unittest.TestCase):
         self.assertGreaterEqual(coverage, self.min_map_coverage)
 
     def test_11_map_saved_on_shutdown(self):
-        """~save_map_on_shutdown: the node, asked to shut down as roslaunch's
+        """~save_map_on_shutdown: the process that holds the nodelet (the
+        standalone node or the manager), asked to shut down as roslaunch's
         Ctrl-C does, writes the map it last published and exits."""
         path = rospy.get_param('~shutdown_map', '')
         if not path:
@@ -339,16 +340,21 @@ class ReplayOutputs(unittest.TestCase):
         node = rospy.get_param('~node', self.ns + '/mapping')
         self.assertFalse(os.path.exists(path), path)
         self.assertEqual(rosnode.kill_nodes([node])[1], [], 'could not ask ' + node + ' to shut down')
-        deadline = time.time() + 60  # a bound, not a guess: the node ends after the step it is in
-        while time.time() < deadline and not os.path.exists(path):  # renamed into place whole
+        # Bounds, not guesses: the worker ends after the step it is in, then
+        # the map is saved (renamed into place whole) and the process exits.
+        deadline = time.time() + 60
+        while time.time() < deadline and not os.path.exists(path):
             time.sleep(0.2)
         self.assertTrue(os.path.exists(path), 'no map at ' + path + ' within 60 s of the shutdown')
         with open(path, 'rb') as f:
             header = f.read(2000).decode('ascii', 'replace')
         count = int([l for l in header.splitlines() if l.startswith('element vertex')][0].split()[-1])
-        rospy.loginfo('check_outputs: %s written at shutdown, %d points', path, count)
+        rospy.loginfo('check_outputs: %s written at shutdown by %s, %d points', path, node, count)
         self.assertEqual(count, self.rec.maps[-1].width)
-
+        deadline = time.time() + 20
+        while time.time() < deadline and rosnode.rosnode_ping(node, max_count=1):
+            time.sleep(0.5)
+        self.assertFalse(rosnode.rosnode_ping(node, max_count=1), node + ' still answers 20 s after its map was saved')
 
 if __name__ == '__main__':
     rostest.rosrun('amhmvs_mapping', 'replay_fountain', ReplayOutputs, sys.argv)

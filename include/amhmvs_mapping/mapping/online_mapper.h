@@ -79,14 +79,14 @@
 #include "amhmvs_mapping/mapping/depth_confidence.h"
 #include "amhmvs_mapping/mapping/depth_range.h"
 #include "amhmvs_mapping/mapping/fusion.h"
+#include "amhmvs_mapping/mapping/map_pose_correction.h"
+#include "amhmvs_mapping/mapping/map_updater.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "amhmvs_mapping/mapping/neighbour_depth.h"
 #include "amhmvs_mapping/mapping/pose_refinement.h"
-#include "amhmvs_mapping/mapping/refined_relative_poses.h"
 #include "amhmvs_mapping/mapping/rolling_shutter.h"
 #include "amhmvs_mapping/mapping/rolling_shutter_rectifier.h"
 #include "amhmvs_mapping/mapping/source_selection.h"
-#include "amhmvs_mapping/mapping/voxel_map.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 
 namespace amhmvs {
@@ -176,13 +176,6 @@ struct FusedKeyframe {
   bool again = false;                   // fused before (refined), with or without points: they are replaced
   Shared<KeyframePoints> points;        // fused points, camera frame (shared with the store and the map)
   PublishedDepth published;             // with confidence.enabled: the depth map as published, its confidence
-};
-
-// One finished update of the voxel map (OnlineMapper::takeMapUpdates).
-struct MapUpdateRecord {
-  int64_t id = 0;          // the keyframe added (or replaced)
-  VoxelMapUpdate update;
-  double milliseconds = 0;  // the update itself (on the worker thread when in the background)
 };
 
 // Wall-clock milliseconds of the stages of one result (0 where a stage did
@@ -333,17 +326,17 @@ class OnlineMapper {
 
   const KeyframeStore& store() const { return store_; }
   // The map, after any update in the background finished.
-  const VoxelMap& map() const;
+  const VoxelMap& map() const { return map_.map(); }
   // Voxels after the last finished map update (does not wait).
-  size_t mapVoxelCount() const { return map_voxel_count_; }
+  size_t mapVoxelCount() const { return map_.voxelCount(); }
   // Waits for a map update in the background (an exception it threw is
   // thrown here).
-  void finishMapWork() const;
+  void finishMapWork() const { map_.finish(); }
   // The map updates finished since the last call (or reset), in order.
-  std::vector<MapUpdateRecord> takeMapUpdates();
+  std::vector<MapUpdateRecord> takeMapUpdates() { return map_.takeUpdates(); }
   const OnlineMapperOptions& options() const { return options_; }
   // Incremented by every change of the map (add, re-pose, reset).
-  uint64_t mapRevision() const { return map_revision_; }
+  uint64_t mapRevision() const { return map_.revision(); }
 
  private:
   // Steps 3-6 for a stored keyframe whose sources were selected; with
@@ -408,19 +401,6 @@ class OnlineMapper {
   // The consistency views of keyframe `id` as fusion reads them: local ids
   // 0..n-1, at the refined relative poses where the pose refinement found them.
   std::vector<FusionView> consistencyFusionViews(int64_t id, const std::vector<int64_t>& view_ids) const;
-  // Keeps the relative poses a problem's refinement found (or drops stale ones).
-  void recordRefinedPoses(int64_t id, const DepthProblem& problem, const PoseRefinementResult& refinement);
-  // pose_refinement.correct_map_poses: solves the keyframe pose graph over
-  // the stored keyframes and moves their points in the map to the result.
-  void correctMapPoses();
-  // pose_refinement.keyframe_bundle_adjustment: adjusts all stored keyframes
-  // together; its relative poses replace the refined pairs' and the problem's
-  // sources', its poses place the map. False (nothing changed) when unsolved.
-  bool adjustKeyframePoses(int64_t id, DepthProblem* problem);
-  // Moves the map's keyframes to map_poses_ (those off by more than a little).
-  void placeMapPoses();
-  // Where the map places a keyframe: its corrected pose, else the tracker's.
-  Eigen::Isometry3d mapPose(int64_t id) const;
   // Fuses keyframe `id`'s depth map against the consistency views.
   KeyframePoints fuse(int64_t id, const std::vector<int64_t>& view_ids) const;
   // Its confidence and published depth against the same views.
@@ -451,16 +431,11 @@ class OnlineMapper {
   // Records evictions in the result; drops evicted waiting keyframes.
   void noteEvicted(const std::vector<int64_t>& evicted, KeyframeResult* result);
 
-  // Adds fused points to the map, in the background when so configured.
-  void addToMap(int64_t id, Shared<KeyframePoints> points);
-  // After a change of the map in this thread: its voxel count and revision.
-  void noteMapChanged();
-
   OnlineMapperOptions options_;
   std::unique_ptr<PoseRefiner> pose_refiner_;  // when options_.pose_refinement.enabled
-  RefinedRelativePoses refined_poses_;         // what it found, for fusion (pose_refinement.in_fusion)
-  // pose_refinement.correct_map_poses / keyframe_bundle_adjustment: stored keyframes' map poses
-  std::map<int64_t, Eigen::Isometry3d> map_poses_;
+  // What it found between keyframes (for stereo and fusion), and the map
+  // poses corrected from it (correct_map_poses / keyframe_bundle_adjustment).
+  MapPoseCorrection poses_;
   EstimateFunction estimate_;
   std::unique_ptr<SerialWorker> estimate_worker_;  // estimates that overlap a deferred fusion
   bool fusion_deferred_ = false;  // step 5 of the last depth map waits (process(..., next_follows))
@@ -472,13 +447,7 @@ class OnlineMapper {
   FuseFunction fuse_;
   PublishFunction publish_;
   KeyframeStore store_;
-  VoxelMap map_;
-  // The map update in the background (at most one) and what finished.
-  mutable std::future<MapUpdateRecord> map_work_;
-  std::unique_ptr<SerialWorker> map_worker_;  // created with the first background update
-  mutable std::vector<MapUpdateRecord> finished_map_updates_;
-  mutable size_t map_voxel_count_ = 0;
-  uint64_t map_revision_ = 0;
+  MapUpdater map_;  // the voxel map, updated in the background when map_in_background
   std::vector<int64_t> waiting_;  // estimated, not fused; oldest first
   size_t evicted_before_fusion_ = 0;
   std::vector<int64_t> waiting_for_sources_;  // no source view yet; oldest first

@@ -160,10 +160,11 @@ class MappingInputs {
   void noteArrival(size_t topic);
   // watch() for a subscriber filter, its arrivals noted before synchronisation.
   template <class Filter>
-  void watchFilter(Filter& filter) {
+  size_t watchFilter(Filter& filter) {
     const size_t topic = watch(filter.getTopic(), [&filter] { return filter.getSubscriber().getNumPublishers(); });
     filter.registerCallback(boost::function<void(const typename Filter::MConstPtr&)>(
         [this, topic](const typename Filter::MConstPtr&) { noteArrival(topic); }));
+    return topic;
   }
   void noteSynchronised();  // a synchronised frame (or a keyframe message) came
   void count(uint64_t InputStats::*counter);
@@ -195,6 +196,7 @@ class MappingInputs {
   mutable std::mutex stats_mutex_;
   InputStats stats_;
   std::vector<Topic> topics_;     // by stats_mutex_ (arrivals)
+  size_t frame_topic_ = 0;        // the image topic, or the keyframe topic in keyframe mode
   ros::WallTime started_, last_synchronised_;
   std::map<std::string, ros::WallTime> last_report_;  // drop reason -> last report
 };
