@@ -105,13 +105,6 @@ std::vector<int64_t> KeyframeStore::add(Keyframe keyframe) {
   if (contains(id)) {
     throw InputError("keyframe store: " + keyframeName(id) + ": duplicate id (already stored)");
   }
-  if (has_stamp_ && keyframe.stamp < last_stamp_) {
-    std::ostringstream message;
-    message.precision(17);
-    message << "keyframe store: " << keyframeName(id) << ": stamp " << keyframe.stamp
-            << " goes backwards (last added stamp " << last_stamp_ << ")";
-    throw InputError(message.str());
-  }
   StoredKeyframe stored;
   stored.keyframe = std::move(keyframe);
   if (stored.keyframe.image.channels != 1) stored.gray_image = toGray(stored.keyframe.image);
@@ -122,8 +115,6 @@ std::vector<int64_t> KeyframeStore::add(Keyframe keyframe) {
                      std::to_string(options_.max_bytes));
   }
   std::vector<int64_t> evicted = makeRoom(1, stored.bytes, id);
-  has_stamp_ = true;
-  last_stamp_ = stored.keyframe.stamp;
   bytes_ += stored.bytes;
   Entry& entry = entries_[id];
   entry.sequence = next_sequence_++;

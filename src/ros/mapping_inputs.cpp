@@ -36,6 +36,7 @@ const std::vector<InputStatField>& inputStatFields() {
       {"dropped: bad_stamp", &InputStats::dropped_bad_stamp},
       {"dropped: missing_tf", &InputStats::dropped_missing_tf},
       {"dropped: bad_pose_update", &InputStats::dropped_bad_pose_update},
+      {"clock_jumps_back", &InputStats::clock_jumps_back},
   };
   return fields;
 }
@@ -339,10 +340,31 @@ void MappingInputs::offer(Frame frame, const geometry_msgs::Pose& pose, bool pic
   }
   {
     std::lock_guard<std::mutex> lock(input_mutex_);
+    // A clock that went back (a bag played again, a simulator restarted):
+    // the input starts again from the new time, as tf2's listener clears its
+    // buffer then; the map stays (~reset starts a new one). Frames stamped
+    // after the new time were sent before the jump (the synchroniser may
+    // still hold some): dropped until the first one of the new time.
+    if (!now.isZero() && !last_clock_.isZero() && now < last_clock_) {
+      count(&InputStats::clock_jumps_back);
+      ROS_WARN_STREAM("the clock jumped back from " << last_clock_ << " to " << now
+                                                     << ": input stamps start again from there; the map is kept "
+                                                        "(call ~reset to start a new one)");
+      last_stamp_ = ros::Time();
+      clock_restarted_ = true;
+    }
+    if (!now.isZero()) last_clock_ = now;
+    if (clock_restarted_ && frame.header.stamp > now) {
+      std::ostringstream out;
+      out << "stamp " << frame.header.stamp << " was sent before the clock jumped back to " << now;
+      drop(&InputStats::dropped_stamp_backwards, out.str());
+      return;
+    }
+    clock_restarted_ = false;
     if (!last_stamp_.isZero() && frame.header.stamp < last_stamp_) {
       std::ostringstream out;
       out << "stamp " << frame.header.stamp << " is before the previous input's " << last_stamp_
-          << " (call ~reset after a time jump)";
+          << " while the clock did not go back (call ~reset to start again)";
       drop(&InputStats::dropped_stamp_backwards, out.str());
       return;
     }

@@ -9,31 +9,18 @@ import math
 import sys
 import time
 import unittest
-import xmlrpc.client
 
 import rosbag
-import rosgraph
 import rospy
 import rostest
 from amhmvs_mapping.msg import Keyframe
 from sensor_msgs.msg import Image
 
-from node_watch import NodeWatch
+from node_watch import NodeWatch, rss_mb
 
 BURST = 10000
 MAX_STORED = 20        # hostile_input.yaml store/max_keyframes
 MAX_RSS_MB = 1024      # the node with ROS, OpenCV and PCL loaded is ~150-300 MB
-
-
-def rss_mb(node):
-    """Resident memory of a ROS node, from its pid (XML-RPC getPid)."""
-    uri = rosgraph.Master('/check_hostile_input').lookupNode(node)
-    _, _, pid = xmlrpc.client.ServerProxy(uri).getPid('/check_hostile_input')
-    with open('/proc/%d/status' % pid) as status:
-        for line in status:
-            if line.startswith('VmRSS:'):
-                return int(line.split()[1]) / 1024.0
-    return float('nan')
 
 
 class HostileInput(unittest.TestCase):

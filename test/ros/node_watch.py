@@ -3,10 +3,25 @@ dict, waiting on a condition with a wall-clock timeout, topic recording and
 its Trigger services."""
 import threading
 import time
+import xmlrpc.client
+
+import rosgraph
 
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray
 from std_srvs.srv import Trigger
+
+
+def rss_mb(node):
+    """Resident memory of a ROS node on this machine, from its pid (XML-RPC getPid)."""
+    caller = rospy.get_name()
+    uri = rosgraph.Master(caller).lookupNode(node)
+    _, _, pid = xmlrpc.client.ServerProxy(uri).getPid(caller)
+    with open('/proc/%d/status' % pid) as status:
+        for line in status:
+            if line.startswith('VmRSS:'):
+                return int(line.split()[1]) / 1024.0
+    return float('nan')
 
 
 class NodeWatch:
@@ -16,6 +31,7 @@ class NodeWatch:
         self.diagnostics = {}
         self.level = None    # of the node's status: 0 OK, 1 WARN, 2 ERROR
         self.message = ''    # its summary
+        self.stamp = None    # of its last message (the node's ros::Time::now(): simulated time follows /clock)
         self.recorded = {}
         rospy.Subscriber('/diagnostics', DiagnosticArray, self._diagnostics)
 
@@ -25,6 +41,7 @@ class NodeWatch:
                 with self.lock:
                     self.diagnostics = {kv.key: kv.value for kv in status.values}
                     self.level, self.message = status.level, status.message
+                    self.stamp = msg.header.stamp.to_sec()
 
     def record(self, topic, kind):
         """Every message on `topic` from now on, in self.recorded[topic]."""

@@ -44,7 +44,7 @@ namespace amhmvs {
 
 struct Keyframe {
   int64_t id = 0;
-  double stamp = 0;      // seconds; non-decreasing over the store's adds
+  double stamp = 0;      // seconds (a label: arrival order decides; a clock may have jumped back)
   ImageU8 image;         // grey (1 channel) or RGB (3), size of the camera
   PinholeCamera camera;  // intrinsics and world-to-camera pose
   // Optional z-depth range of the scene in this view (e.g. from the SLAM
@@ -100,8 +100,8 @@ class KeyframeStore {
   explicit KeyframeStore(const KeyframeStoreOptions& options = KeyframeStoreOptions());
 
   // Adds a pending keyframe. Throws InputError (store unchanged) for an
-  // invalid keyframe, a duplicate id, a stamp earlier than the last added
-  // one, or a keyframe larger than max_bytes alone. Returns evicted ids.
+  // invalid keyframe, a duplicate id, or a keyframe larger than max_bytes
+  // alone. Returns evicted ids.
   std::vector<int64_t> add(Keyframe keyframe);
 
   // Records the sources chosen for a pending keyframe (protects them from
@@ -170,8 +170,6 @@ class KeyframeStore {
   std::map<uint64_t, int64_t> order_;             // sequence -> id, oldest first
   std::unordered_map<int64_t, int> source_refs_;  // id -> pending keyframes using it
   uint64_t next_sequence_ = 0;
-  bool has_stamp_ = false;
-  double last_stamp_ = 0;
   size_t bytes_ = 0;
   size_t evicted_count_ = 0;
   uint64_t revision_ = 0;

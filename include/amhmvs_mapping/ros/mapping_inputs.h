@@ -67,6 +67,7 @@ struct InputStats {
   uint64_t dropped_bad_stamp = 0;  // zero (header not filled) or more than a day ahead of the clock
   uint64_t dropped_missing_tf = 0;
   uint64_t dropped_bad_pose_update = 0;
+  uint64_t clock_jumps_back = 0;  // the ROS clock went back (a bag played again): stamps start again
 
   uint64_t droppedTotal() const {
     return dropped_encoding + dropped_bad_pose + dropped_bad_camera_info + dropped_bad_keyframe +
@@ -190,6 +191,8 @@ class MappingInputs {
   std::mutex input_mutex_;
   bool paused_ = false;
   ros::Time last_stamp_;
+  ros::Time last_clock_;  // ros::Time::now() at the last frame (a clock that goes back restarts the stamps)
+  bool clock_restarted_ = false;  // since the jump, no frame of the new time yet
   amhmvs::KeyframePicker picker_;
   int64_t next_id_ = 0;
 

@@ -1,9 +1,9 @@
 // Accuracy on the real data with the paper's defaults, on the CPU backend
 // (the paper's photometric depth maps, 3 iterations). The public
 // implementation's numbers, measured with the same metrics, are held on all
-// views for both backends by test/gpu/gpu_tests.cpp on the GPU machine. Middlebury's
-// floors are checked by GeometricConsistency.GeometricPassImprovesMiddleburyOnTheCpu
-// (test/unit/mvs), whose photometric pass is the same estimate.
+// views for both backends by test/gpu/gpu_tests.cpp on the GPU machine, and
+// Middlebury's there too (here: two of its scenes in
+// GeometricConsistency.GeometricPassImprovesMiddleburyOnTheCpu, test/unit/mvs).
 #include <gtest/gtest.h>
 
 #include <cstdio>

@@ -1,0 +1,136 @@
+#!/usr/bin/env python3
+"""The soak's monitor (soak.launch): every 10 s of wall time a row of the
+nodelet's diagnostics and its resident memory in OUT/soak.csv; every
+repose_every_s a loop-closure update of the three newest keyframes (their
+recorded pose moved 5 mm); every reset_every_s a ~reset; after `minutes` a
+summary (OUT/summary.txt: memory and per-keyframe time after warm-up, the
+store and map against their bounds) and the end of the launch."""
+import csv
+import os
+import statistics
+import sys
+import time
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped
+from std_srvs.srv import Trigger
+
+from amhmvs_mapping.msg import KeyframePose, KeyframePoses
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'ros'))
+from node_watch import rss_mb  # noqa: E402 (beside the rostests' checkers)
+
+COLUMNS = ['wall_s', 'rss_mb', 'keyframes_received', 'depth_maps', 'stored_keyframes', 'map voxels', 'queued',
+           'dropped', 'clock_jumps_back', 'pose_updates_applied', 'pose_updates_not_stored', 'resets',
+           'last keyframe ms']
+WARM_UP_S = 300  # memory and times are compared after the first five minutes
+
+
+class Monitor:
+    def __init__(self):
+        self.node = rospy.get_param('~node')
+        self.out = rospy.get_param('~out')
+        self.minutes = float(rospy.get_param('~minutes'))
+        self.reset_every = float(rospy.get_param('~reset_every_s'))
+        self.repose_every = float(rospy.get_param('~repose_every_s'))
+        self.diagnostics = {}
+        self.poses = []  # every /camera/pose as played: keyframes are numbered in arrival order
+        self.resets = 0
+        rospy.Subscriber('/diagnostics', DiagnosticArray, self.on_diagnostics)
+        rospy.Subscriber('/camera/pose', PoseStamped, lambda m: self.poses.append(m.pose))
+        self.pose_pub = rospy.Publisher(self.node.rsplit('/', 1)[0] + '/keyframe_poses', KeyframePoses,
+                                        queue_size=5)
+
+    def on_diagnostics(self, msg):
+        for status in msg.status:
+            if 'depth estimation' in status.name:
+                self.diagnostics = {kv.key: kv.value for kv in status.values}
+
+    def value(self, key):
+        try:
+            return float(self.diagnostics.get(key, 'nan'))
+        except ValueError:
+            return float('nan')
+
+    def repose(self):
+        sent = int(self.value('keyframes_sent')) if self.diagnostics else 0
+        update = KeyframePoses()
+        update.header.frame_id = 'world'
+        for kf_id in range(max(0, sent - 3), sent):
+            if kf_id >= len(self.poses):
+                continue
+            pose = KeyframePose(keyframe_id=kf_id, camera_to_world=self.poses[kf_id])
+            pose.camera_to_world.position.x += 0.005
+            update.poses.append(pose)
+        if update.poses:
+            self.pose_pub.publish(update)
+
+    def reset(self):
+        rospy.wait_for_service(self.node + '/reset', timeout=10)
+        rospy.ServiceProxy(self.node + '/reset', Trigger)()
+        self.resets += 1
+        self.poses = []  # numbering starts again
+
+    def run(self):
+        os.makedirs(self.out, exist_ok=True)
+        rows = []
+        start = time.time()
+        next_sample = next_repose = start
+        next_reset = start + self.reset_every
+        with open(os.path.join(self.out, 'soak.csv'), 'w', newline='') as f:
+            writer = csv.writer(f)
+            writer.writerow(COLUMNS)
+            while not rospy.is_shutdown() and time.time() - start < 60 * self.minutes:
+                now = time.time()
+                if now >= next_sample and self.diagnostics:
+                    row = [round(now - start, 1), round(rss_mb(self.node), 1)] + \
+                          [self.value(k) for k in COLUMNS[2:7]] + \
+                          [sum(float(v) for k, v in self.diagnostics.items() if k.startswith('dropped: '))] + \
+                          [self.value(k) for k in COLUMNS[8:11]] + [self.resets, self.value('last keyframe ms')]
+                    writer.writerow(row)
+                    f.flush()
+                    rows.append(dict(zip(COLUMNS, row)))
+                    next_sample += 10
+                if now >= next_repose:
+                    self.repose()
+                    next_repose += self.repose_every
+                if now >= next_reset:
+                    self.reset()
+                    next_reset += self.reset_every
+                time.sleep(0.2)
+        self.summarise(rows)
+        rospy.signal_shutdown('soak done')
+
+    def summarise(self, rows):
+        late = [r for r in rows if r['wall_s'] >= WARM_UP_S]
+        if not late:
+            print('soak_monitor: too short for a summary (warm-up %d s)' % WARM_UP_S)
+            return
+        first, last = late[0], late[-1]
+        hours = (last['wall_s'] - first['wall_s']) / 3600
+        quarter = max(1, len(late) // 4)
+        lines = [
+            'soak: %.1f min, %d resets, %d clock jumps back (bag loops)' % (
+                rows[-1]['wall_s'] / 60, self.resets, last['clock_jumps_back']),
+            'resident memory after warm-up: %.0f MB at %.0f s, %.0f MB at the end, at most %.0f MB' % (
+                first['rss_mb'], first['wall_s'], last['rss_mb'], max(r['rss_mb'] for r in late)),
+            'memory growth after warm-up: %.1f MB per hour' % (
+                (last['rss_mb'] - first['rss_mb']) / hours if hours > 0 else float('nan')),
+            'last keyframe ms, median of the first / last quarter after warm-up: %.1f / %.1f' % (
+                statistics.median(r['last keyframe ms'] for r in late[:quarter]),
+                statistics.median(r['last keyframe ms'] for r in late[-quarter:])),
+            'most stored keyframes %d (bound %d); most map voxels %d (bound %d)' % (
+                max(r['stored_keyframes'] for r in rows), rospy.get_param(self.node + '/store/max_keyframes'),
+                max(r['map voxels'] for r in rows), rospy.get_param(self.node + '/map/max_voxels')),
+            'pose updates applied %d, not stored %d; dropped in all %d' % (
+                last['pose_updates_applied'], last['pose_updates_not_stored'], last['dropped']),
+        ]
+        with open(os.path.join(self.out, 'summary.txt'), 'w') as f:
+            f.write('\n'.join(lines) + '\n')
+        print('\n'.join(lines))
+
+
+if __name__ == '__main__':
+    rospy.init_node('soak_monitor')
+    Monitor().run()
+    sys.exit(0)
