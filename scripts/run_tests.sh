@@ -52,6 +52,32 @@ run_unit_programs() {
   return $rc
 }
 
+# run_unit_programs_two_at_a_time: as run_unit_programs, two programs at a
+# time (the sanitizer suite: single-threaded tests), each with its output in
+# OUT/PROGRAM.log, printed in order at the end.
+run_unit_programs_two_at_a_time() {
+  local build_dir=$1 excluded=$2 out=$3 rc=0 program name finished pid
+  shift 3
+  mkdir -p "$out"
+  local -a running=() logs=() still=()
+  while read -r program; do
+    name=$(basename "$program")
+    if [ ${#running[@]} -ge 2 ]; then
+      wait -n -p finished "${running[@]}" || rc=1
+      still=()
+      for pid in "${running[@]}"; do [ "$pid" = "$finished" ] || still+=("$pid"); done
+      running=("${still[@]}")
+    fi
+    "$@" "$program" --gtest_filter="*-$excluded" --gtest_output=xml:"$out/$name.xml" > "$out/$name.log" 2>&1 &
+    running+=($!)
+    logs+=("$out/$name.log")
+    unit_results+=("$out/$name.xml")
+  done < "$build_dir/unit_test_programs.txt"
+  for pid in "${running[@]}"; do wait "$pid" || rc=1; done
+  cat "${logs[@]}"
+  return $rc
+}
+
 if [ "$fast" = true ]; then
   AMHMVS_MAKE_TARGETS="amhmvs_unit_tests" "$here/scripts/build.sh"
   mkdir -p "$build/test_results"
@@ -167,7 +193,7 @@ sanitizer_job() {
   fuzzers=$!
   status=0
   run_logged "sanitizer core suite" "$core_results/asan_unit_tests.log" \
-    run_unit_programs "$asan_build" "$slow:$slow_under_sanitizers" "$core_results/asan" \
+    run_unit_programs_two_at_a_time "$asan_build" "$slow:$slow_under_sanitizers" "$core_results/asan" \
     env ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1
   wait "$fuzzers" || status=1
   cat "$core_results/fuzzers_job.log"
