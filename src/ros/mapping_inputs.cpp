@@ -347,9 +347,12 @@ void MappingInputs::offer(Frame frame, const geometry_msgs::Pose& pose, bool pic
     // still hold some): dropped until the first one of the new time.
     if (!now.isZero() && !last_clock_.isZero() && now < last_clock_) {
       count(&InputStats::clock_jumps_back);
-      ROS_WARN_STREAM("the clock jumped back from " << last_clock_ << " to " << now
-                                                     << ": input stamps start again from there; the map is kept "
-                                                        "(call ~reset to start a new one)");
+      // A looped bag jumps at every loop: at most a line a minute.
+      ROS_WARN_STREAM_THROTTLE(60, "the clock jumped back from "
+                                       << last_clock_ << " to " << now
+                                       << ": input stamps start again from there; the map is kept (call ~reset to "
+                                          "start a new one) ["
+                                       << stats().clock_jumps_back << " jumps so far]");
       last_stamp_ = ros::Time();
       clock_restarted_ = true;
     }
