@@ -70,8 +70,8 @@ void MapPoseCorrection::moveMapKeyframes(MapUpdater* map) {
   // refinement itself: a keyframe moves when it is off by 1 mm or 1e-4 rad
   // (0.5 mm at 5 m), else it stays where it is placed.
   constexpr double kMinShiftM = 1e-3, kMinTurnRad = 1e-4;
+  const VoxelMap& placed_map = map->map();  // after the update in flight
   for (auto& entry : corrected_) {
-    const VoxelMap& placed_map = map->map();  // after the update in flight
     if (!placed_map.contains(entry.first)) continue;
     const Eigen::Isometry3d& placed = placed_map.pose(entry.first);
     const bool moved = (placed.translation() - entry.second.translation()).norm() >= kMinShiftM ||
