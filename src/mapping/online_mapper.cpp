@@ -15,25 +15,16 @@
 namespace amhmvs {
 namespace {
 
-bool hasDepthAndNormals(const StoredKeyframe& stored) {
-  return stored.state == KeyframeState::kDone && !stored.depth->depth.empty() && stored.depth->normal.channels == 3;
-}
-
-// Borrows the stored keyframe's maps and image (no copy): the store keeps
-// them while fusion runs.
-FusionView fusionView(int local_id, const StoredKeyframe& stored) {
-  FusionView view;
-  view.id = local_id;
-  view.camera = stored.keyframe.camera;
-  view.depth = stored.depth->depth;
-  view.normal = stored.depth->normal;
-  view.cost = stored.depth->cost;
-  view.color = stored.keyframe.image;
-  view.key = static_cast<int64_t>(stored.depth_revision);
-  return view;
-}
-
 using Clock = std::chrono::steady_clock;
+
+ConsistencyFusionOptions consistencyFusionOptions(const OnlineMapperOptions& options) {
+  ConsistencyFusionOptions fusion;
+  fusion.sources = options.sources;
+  fusion.fusion = options.fusion;
+  fusion.confidence = options.confidence;
+  fusion.at_refined_poses = options.pose_refinement.enabled && options.pose_refinement.in_fusion;
+  return fusion;
+}
 
 // Total score of the selected sources (they come first among the candidates).
 double selectionScore(const SourceSelection& selection) {
@@ -89,20 +80,15 @@ OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction 
                            PublishFunction publish)
     : options_(options),
       estimate_(std::move(estimate)),
-      fuse_(fuse ? std::move(fuse) : FuseFunction(fuseDepthMaps)),
-      publish_(publish ? std::move(publish) : PublishFunction([](const FusionView& reference,
-                                                                   const std::vector<FusionView>& views,
-                                                                   const ConfidenceOptions& confidence,
-                                                                   const ConfidenceCalibration& calibration) {
-        return publishDepth(reference, views, confidence, calibration);
-      })),
       store_(options.store),
-      map_(options.map) {
+      map_(options.map),
+      consistency_(store_, poses_, std::move(fuse), std::move(publish)) {
   const std::string problems = options.validate();
   if (!problems.empty()) throw InputError("online mapper options:\n" + problems);
   if (!estimate_) throw InputError("online mapper: no estimate function");
   if (options.pose_refinement.enabled) pose_refiner_.reset(new PoseRefiner(options.pose_refinement));
   rolling_shutter_.setOptions(options.rolling_shutter);
+  consistency_.setOptions(consistencyFusionOptions(options));
 }
 
 KeyframeResult OnlineMapper::process(Keyframe keyframe, bool next_follows) {
@@ -123,7 +109,7 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe, bool next_follows) {
     markSourceOnly(id, &result);
     if (store_.contains(id)) waiting_for_sources_.push_back(id);
     runDeferredFusion(&result);  // no estimate to overlap
-    result.waiting_for_fusion = waiting_.size();
+    result.waiting_for_fusion = schedule_.waiting().size();
     result.times.total_ms = millisecondsSince(start);
     return result;
   }
@@ -163,44 +149,44 @@ bool OnlineMapper::fuseDeferred(KeyframeResult* result) {
   if (!fusionDeferred()) return false;
   const Clock::time_point start = Clock::now();
   *result = KeyframeResult();
-  result->id = deferred_id_;
+  result->id = deferred_.id;
   result->deferred_fusion = true;
-  result->camera = store_.contains(deferred_id_) ? store_.keyframe(deferred_id_).camera : PinholeCamera();
+  result->camera = store_.contains(deferred_.id) ? store_.keyframe(deferred_.id).camera : PinholeCamera();
   runDeferredFusion(result);
-  result->waiting_for_fusion = waiting_.size();
+  result->waiting_for_fusion = schedule_.waiting().size();
   result->times.total_ms = millisecondsSince(start);
   return true;
 }
 
 void OnlineMapper::handOutUndelivered(KeyframeResult* result) {
-  for (FusedKeyframe& fused : undelivered_.fused) result->fused.push_back(std::move(fused));
+  for (FusedKeyframe& fused : deferred_.undelivered.fused) result->fused.push_back(std::move(fused));
   const auto append = [](const std::vector<int64_t>& ids, std::vector<int64_t>* to) {
     to->insert(to->end(), ids.begin(), ids.end());
   };
-  append(undelivered_.evicted, &result->evicted);
-  append(undelivered_.evicted_before_fusion, &result->evicted_before_fusion);
-  undelivered_ = KeyframeResult();
+  append(deferred_.undelivered.evicted, &result->evicted);
+  append(deferred_.undelivered.evicted_before_fusion, &result->evicted_before_fusion);
+  deferred_.undelivered = KeyframeResult();
 }
 
 void OnlineMapper::keepUndelivered(KeyframeResult* result) {
   // A call that throws hands out nothing: what it fused or evicted before
   // comes with the next result.
-  undelivered_.fused = std::move(result->fused);
-  undelivered_.evicted = std::move(result->evicted);
-  undelivered_.evicted_before_fusion = std::move(result->evicted_before_fusion);
+  deferred_.undelivered.fused = std::move(result->fused);
+  deferred_.undelivered.evicted = std::move(result->evicted);
+  deferred_.undelivered.evicted_before_fusion = std::move(result->evicted_before_fusion);
 }
 
 void OnlineMapper::runDeferredFusion(KeyframeResult* result) {
   handOutUndelivered(result);
-  if (!fusion_deferred_) return;
-  fusion_deferred_ = false;
+  if (!deferred_.pending) return;
+  deferred_.pending = false;
   fuseWaiting(result);
 }
 
 void OnlineMapper::fuseDeferredNow() {
-  if (!fusion_deferred_) return;
-  fusion_deferred_ = false;
-  fuseWaiting(&undelivered_);
+  if (!deferred_.pending) return;
+  deferred_.pending = false;
+  fuseWaiting(&deferred_.undelivered);
 }
 
 bool OnlineMapper::estimateLate(KeyframeResult* result) {
@@ -208,7 +194,7 @@ bool OnlineMapper::estimateLate(KeyframeResult* result) {
   for (const int64_t id : waiting_for_sources_) {
     SourceSelection selection = selectSources(store_, id, options_.sources);
     if (selection.source_ids.empty()) continue;
-    if (fusion_deferred_) {
+    if (deferred_.pending) {
       // First: it may evict what this estimate would read; then choose again.
       fuseDeferredNow();
       return estimateLate(result) || fuseDeferred(result);
@@ -246,25 +232,12 @@ bool OnlineMapper::refine(KeyframeResult* result) {
   return fuseAgainstReplacedMaps(result);
 }
 
-void OnlineMapper::noteReplacedDepthMap(int64_t id) {
-  for (auto& [other, record] : records_) {
-    if (other != id && record.fused &&
-        std::find(record.fused_with.begin(), record.fused_with.end(), id) != record.fused_with.end()) {
-      record.fused_against_replaced_map = true;
-    }
-  }
-}
-
 bool OnlineMapper::fuseAgainstReplacedMaps(KeyframeResult* result) {
-  const size_t required = requiredConsistencyViews();
-  for (auto& [id, record] : records_) {  // lowest id first
-    if (!record.fused_against_replaced_map) continue;
-    record.fused_against_replaced_map = false;
-    if (std::find(waiting_.begin(), waiting_.end(), id) != waiting_.end()) continue;  // fused anyway
+  while (const std::optional<int64_t> id = schedule_.takeFusedAgainstReplaced()) {
     const Clock::time_point start = Clock::now();
-    std::vector<int64_t> views = consistencyViews(id);
-    if (views.size() < required) continue;
-    fuseAgainNow(id, std::move(views), start, result);
+    std::vector<int64_t> views = consistency_.views(*id);
+    if (views.size() < consistency_.requiredViews()) continue;
+    fuseAgainNow(*id, std::move(views), start, result);
     return true;
   }
   return false;
@@ -346,37 +319,37 @@ void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult
   for (size_t s = 0; s < sources.size() && s < problem.source_cameras.size(); ++s)
     record.stereo_sources[sources[s]] = problem.source_cameras[s];
   if (result->refinement_rejected) {
-    result->waiting_for_fusion = waiting_.size();
+    result->waiting_for_fusion = schedule_.waiting().size();
     return;
   }
   start = Clock::now();
   noteEvicted(store_.attachDepth(id, result->depth), result);
   result->times.store_ms += millisecondsSince(start);
   if (!store_.contains(id)) return;
-  if (result->refined && options_.refinement.fuse_neighbours_again) noteReplacedDepthMap(id);
+  if (result->refined && options_.refinement.fuse_neighbours_again) schedule_.depthMapReplaced(id);
   // A keyframe with a depth map waits for fusion (a refined one again); this
   // depth map may also complete earlier waiting keyframes.
-  if (std::find(waiting_.begin(), waiting_.end(), id) == waiting_.end()) waiting_.push_back(id);
+  schedule_.wait(id);
   if (defer_fusion) {
-    fusion_deferred_ = true;  // during the next keyframe's estimate
-    deferred_id_ = id;
+    deferred_.pending = true;  // during the next keyframe's estimate
+    deferred_.id = id;
   } else {
     fuseWaiting(result);
   }
-  result->waiting_for_fusion = waiting_.size();
+  result->waiting_for_fusion = schedule_.waiting().size();
 }
 
 DepthMap OnlineMapper::estimateWhileFusing(const DepthProblem& problem, KeyframeResult* result) {
-  if (!fusion_deferred_) return estimate_(problem);
-  fusion_deferred_ = false;
+  if (!deferred_.pending) return estimate_(problem);
+  deferred_.pending = false;
   // Fusion attaches points to the waiting keyframes; the store makes room by
   // evicting, and must not reach the images this estimate reads.
   size_t most_point_bytes = 0;
-  for (int64_t waiting : waiting_) {
+  for (int64_t waiting : schedule_.waiting()) {
     const PinholeCamera& camera = store_.keyframe(waiting).camera;
     most_point_bytes += static_cast<size_t>(camera.width) * camera.height * sizeof(KeyframePoint);
   }
-  if (store_.bytesBeforePendingEvicted(waiting_) < most_point_bytes) {
+  if (store_.bytesBeforePendingEvicted(schedule_.waiting()) < most_point_bytes) {
     fuseWaiting(result);
     return estimate_(problem);
   }
@@ -404,11 +377,7 @@ OnlineMapper::Forgotten OnlineMapper::forgetKeyframe(int64_t id) {
     waiting_for_sources_.erase(without_depth);
     forgotten.was_waiting_for_sources = true;
   }
-  const auto waiting = std::find(waiting_.begin(), waiting_.end(), id);
-  if (waiting != waiting_.end()) {
-    waiting_.erase(waiting);
-    forgotten.was_waiting_for_fusion = true;
-  }
+  forgotten.was_waiting_for_fusion = schedule_.forget(id);
   return forgotten;
 }
 
@@ -424,40 +393,29 @@ void OnlineMapper::noteEvicted(const std::vector<int64_t>& evicted, KeyframeResu
 }
 
 void OnlineMapper::fuseWaiting(KeyframeResult* result) {
-  const size_t required = requiredConsistencyViews();
+  const size_t required = consistency_.requiredViews();
   // A snapshot: fusing one keyframe may evict another (attachPoints).
-  const std::vector<int64_t> candidates = waiting_;
+  const std::vector<int64_t> candidates = schedule_.waiting();
   for (int64_t id : candidates) {
-    if (std::find(waiting_.begin(), waiting_.end(), id) == waiting_.end()) continue;  // evicted meanwhile
+    if (!schedule_.isWaiting(id)) continue;  // evicted meanwhile
     Clock::time_point start = Clock::now();
-    std::vector<int64_t> views = consistencyViews(id);
+    std::vector<int64_t> views = consistency_.views(id);
     result->times.fusion_ms += millisecondsSince(start);
     if (views.size() < required) continue;
-    waiting_.erase(std::find(waiting_.begin(), waiting_.end(), id));
     fuseNow(id, std::move(views), result);
   }
-  // Views that come later are near in time: a keyframe fused with fewer
-  // views than the confidence counts waits for more (fuseAgain) during the
-  // next kUnderfusedRechecks depth maps only, so that keyframes which never
-  // get more (a sparse stretch) cost nothing for the rest of the run.
-  for (auto& [id, record] : records_) {
-    if (!record.underfused) continue;
-    record.underfused->views_checked = false;  // a new depth map may be a new view
-    if (--record.underfused->rechecks_left <= 0) record.underfused.reset();
-  }
+  schedule_.depthMapChecked();
 }
 
 bool OnlineMapper::fuseAgain(KeyframeResult* result) {
   if (fusionDeferred()) return fuseDeferred(result);  // newer work first
   const Clock::time_point start = Clock::now();
-  for (auto& [id, record] : records_) {
-    if (!record.underfused) continue;
-    Underfused& entry = *record.underfused;
-    if (entry.views_checked) continue;  // nothing changed since (an idle pipeline asks again and again)
-    if (std::find(waiting_.begin(), waiting_.end(), id) != waiting_.end()) continue;  // refined: waits anew
-    std::vector<int64_t> views = consistencyViews(id);
-    entry.views_checked = true;
-    if (views.size() <= entry.views) continue;
+  // Nothing changed for the others since they were checked (an idle
+  // pipeline asks again and again); a refined keyframe waits anew.
+  for (int64_t id : schedule_.underfusedToCheck()) {
+    std::vector<int64_t> views = consistency_.views(id);
+    schedule_.markChecked(id);
+    if (views.size() <= schedule_.underfusedViews(id)) continue;
     fuseAgainNow(id, std::move(views), start, result);
     return true;
   }
@@ -472,36 +430,29 @@ void OnlineMapper::fuseAgainNow(int64_t id, std::vector<int64_t> views, Clock::t
   result->camera = store_.keyframe(id).camera;
   result->times.fusion_ms = millisecondsSince(start);
   fuseNow(id, std::move(views), result);
-  result->waiting_for_fusion = waiting_.size();
+  result->waiting_for_fusion = schedule_.waiting().size();
   result->times.total_ms = millisecondsSince(start);
 }
 
 void OnlineMapper::fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResult* result) {
-  const size_t counted = std::min(consistencyViewCap(), static_cast<size_t>(defaultConfidenceCalibration().max_views));
+  const size_t counted =
+      std::min(consistency_.viewCap(), static_cast<size_t>(defaultConfidenceCalibration().max_views));
   // With the confidence off too: more views confirm more of the depth map,
   // so the map's coverage does not depend on whether the later keyframes
   // were estimated before this one was fused (a machine's speed).
-  KeyframeRecord& record = records_[id];
-  if (options_.confidence.again_with_more_views && views.size() < counted) {
-    record.underfused = Underfused{views.size(), kUnderfusedRechecks};
-  } else {
-    record.underfused.reset();
-  }
+  const bool too_few = options_.confidence.again_with_more_views && views.size() < counted;
   FusedKeyframe fused;
-  fused.consistency_ids = std::move(views);
   fused.id = id;
-  fused.again = record.fused;
-  record.fused = true;
-  record.fused_with = fused.consistency_ids;
-  record.fused_against_replaced_map = false;
+  fused.again = schedule_.fuse(id, views, too_few);
+  fused.consistency_ids = std::move(views);
   fused.stamp = store_.keyframe(id).stamp;
   fused.camera = store_.keyframe(id).camera;
   Clock::time_point start = Clock::now();
-  fused.points = fuse(id, fused.consistency_ids);
+  fused.points = consistency_.fuse(id, fused.consistency_ids);
   result->times.fusion_ms += millisecondsSince(start);
   if (options_.confidence.enabled) {
     start = Clock::now();
-    fused.published = publish(id, fused.consistency_ids);
+    fused.published = consistency_.publish(id, fused.consistency_ids);
     result->times.confidence_ms += millisecondsSince(start);
   }
   if (!fused.points->empty()) {
@@ -520,40 +471,6 @@ void OnlineMapper::fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResul
 }
 
 OnlineMapper::~OnlineMapper() = default;  // map_ waits for its update in flight
-
-size_t OnlineMapper::consistencyViewCap() const {
-  return static_cast<size_t>(
-      std::min(kMaxSourceViews, std::max(options_.sources.max_sources, options_.fusion.min_consistent_views)));
-}
-
-size_t OnlineMapper::requiredConsistencyViews() const {
-  return static_cast<size_t>(std::max(1, options_.fusion.min_consistent_views));
-}
-
-std::vector<int64_t> OnlineMapper::consistencyViews(int64_t id) const {
-  std::vector<int64_t> candidates;
-  for (int64_t other : store_.ids()) {
-    if (other != id && hasDepthAndNormals(store_.entry(other))) candidates.push_back(other);
-  }
-  if (candidates.empty()) return {};
-  SourceSelectionOptions options = options_.sources;
-  options.max_sources = static_cast<int>(consistencyViewCap());
-  // Through the store: the scene depth is the keyframe's own depth map's.
-  return selectSources(store_, id, candidates, options).source_ids;
-}
-
-// Local fusion ids: the consistency views 0..n-1 (no sources of their own:
-// they only support).
-std::vector<FusionView> OnlineMapper::consistencyFusionViews(int64_t id, const std::vector<int64_t>& view_ids) const {
-  const bool refined = options_.pose_refinement.enabled && options_.pose_refinement.in_fusion;
-  const PinholeCamera& camera = store_.keyframe(id).camera;
-  std::vector<FusionView> views;
-  for (int64_t view : view_ids) {
-    views.push_back(fusionView(static_cast<int>(views.size()), store_.entry(view)));
-    if (refined) poses_.placeView(id, camera, view, &views.back().camera);
-  }
-  return views;
-}
 
 bool OnlineMapper::stereoPosesMoved(int64_t id, const KeyframeRecord& record) const {
   // Relative depth error of a pose change at a parallax of ~3 deg (10 cm at
@@ -581,48 +498,25 @@ bool OnlineMapper::stereoPosesMoved(int64_t id, const KeyframeRecord& record) co
   return false;
 }
 
-PublishedDepth OnlineMapper::publish(int64_t id, const std::vector<int64_t>& view_ids) const {
-  const StoredKeyframe& stored = store_.entry(id);
-  if (!hasDepthAndNormals(stored)) return {};
-  const std::vector<FusionView> views = consistencyFusionViews(id, view_ids);
-  return publish_(fusionView(static_cast<int>(views.size()), stored), views, options_.confidence,
-                  defaultConfidenceCalibration());
-}
-
-KeyframePoints OnlineMapper::fuse(int64_t id, const std::vector<int64_t>& view_ids) const {
-  // The keyframe is view n after the consistency views.
-  std::vector<FusionView> views = consistencyFusionViews(id, view_ids);
-  const StoredKeyframe& stored = store_.entry(id);
-  if (views.empty() || !hasDepthAndNormals(stored)) return {};
-  FusionView reference = fusionView(static_cast<int>(views.size()), stored);
-  for (const FusionView& view : views) reference.source_ids.push_back(view.id);
-  views.push_back(std::move(reference));
-  // min_consistent_views as configured: never fewer than asked for.
-  FusionResult fused = fuse_(views, options_.fusion);
-  return std::move(fused.views.back().points);
-}
-
 bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world) {
   const std::string problem = validateRigidPose(camera_to_world);
   if (!problem.empty()) throw InputError("keyframe " + std::to_string(id) + ": " + problem);
   const bool stored = store_.contains(id);
   if (stored) store_.updatePose(id, camera_to_world);
   poses_.dropCorrection(id);
-  for (auto& [other, record] : records_)  // views follow the poses
-    if (record.underfused) record.underfused->views_checked = false;
+  schedule_.posesChanged();  // views follow the poses
   return map_.updatePose(id, camera_to_world) || stored;
 }
 
 void OnlineMapper::reset() {
   store_ = KeyframeStore(options_.store);
-  waiting_.clear();
+  schedule_.clear();
   evicted_before_fusion_ = 0;
   waiting_for_sources_.clear();
   evicted_without_depth_ = 0;
   rolling_shutter_.reset();
   records_.clear();
-  fusion_deferred_ = false;
-  undelivered_ = KeyframeResult();
+  deferred_ = DeferredFusion();
   if (pose_refiner_) pose_refiner_->forgetAll();
   poses_.clear();
   map_.reset(options_.map);
@@ -655,6 +549,7 @@ void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
     pose_refiner_.reset(new PoseRefiner(options.pose_refinement));  // features of other settings: detected again
   }
   rolling_shutter_.setOptions(kept.rolling_shutter);
+  consistency_.setOptions(consistencyFusionOptions(kept));
   options_ = kept;
 }
 

@@ -275,6 +275,9 @@ class MappingPipeline {
   std::unique_ptr<DepthEstimator> estimator_, cpu_estimator_;
   std::unique_ptr<FallbackEstimator> fallback_;
   std::unique_ptr<DepthMapFuser> fuser_;  // fusion on the GPU when the estimator runs there
+  // The estimate runs on the mapper's worker thread while a deferred fusion
+  // runs (OnlineMapper::process(..., next_follows)): it offers its device
+  // outputs from there; the fusion on the mapping thread takes them.
   std::mutex offer_mutex_;
   std::vector<DeviceDepthMap> offered_;   // the last estimates' device outputs (empty: a CPU estimate's)
   bool offer_new_ = false;                // not yet handed to the fuser
@@ -296,6 +299,8 @@ class MappingPipeline {
   bool reset_requested_ = false;
   bool woken_ = false;
 
+  // stats() and the reports are called from the caller's threads (ROS
+  // callbacks, diagnostics) while the mapping thread updates them.
   mutable std::mutex stats_mutex_;
   PipelineStats stats_;
   std::mutex report_mutex_;

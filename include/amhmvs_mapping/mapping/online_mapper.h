@@ -76,9 +76,11 @@
 #include <vector>
 
 #include "amhmvs_mapping/core/serial_worker.h"
+#include "amhmvs_mapping/mapping/consistency_fusion.h"
 #include "amhmvs_mapping/mapping/depth_confidence.h"
 #include "amhmvs_mapping/mapping/depth_range.h"
 #include "amhmvs_mapping/mapping/fusion.h"
+#include "amhmvs_mapping/mapping/fusion_schedule.h"
 #include "amhmvs_mapping/mapping/map_pose_correction.h"
 #include "amhmvs_mapping/mapping/map_updater.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
@@ -162,10 +164,6 @@ void appendProblems(const std::string& group, const std::string& problems, std::
 // evicted keyframe and forgetAll() on reset (ids may be reused), as
 // MappingPipeline does.
 using EstimateFunction = std::function<DepthMap(const DepthProblem&)>;
-
-// Fusion as the mapper calls it (fuseDepthMaps, or a DepthMapFuser on the
-// GPU). Views carry keys (FusionView::key) unique to each depth map.
-using FuseFunction = std::function<FusionResult(const std::vector<FusionView>&, const FusionOptions&)>;
 
 // One keyframe fused into the map.
 struct FusedKeyframe {
@@ -261,7 +259,9 @@ class OnlineMapper {
   // a keyframe to estimate (its outcome comes with theirs), fuseAgain() as
   // its work.
   bool fuseDeferred(KeyframeResult* result);
-  bool fusionDeferred() const { return fusion_deferred_ || !undelivered_.fused.empty() || !undelivered_.evicted.empty(); }
+  bool fusionDeferred() const {
+    return deferred_.pending || !deferred_.undelivered.fused.empty() || !deferred_.undelivered.evicted.empty();
+  }
 
   // Stores a keyframe as a source view only: no depth map of its own, ever
   // (e.g. one skipped for a newer keyframe while estimation lags behind).
@@ -302,7 +302,7 @@ class OnlineMapper {
   bool updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world);
 
   // Keyframes with a depth map that wait for fusion, oldest first.
-  const std::vector<int64_t>& waitingForFusion() const { return waiting_; }
+  const std::vector<int64_t>& waitingForFusion() const { return schedule_.waiting(); }
   // Waiting keyframes evicted from the store before they were fused (since
   // construction or reset).
   size_t evictedBeforeFusion() const { return evicted_before_fusion_; }
@@ -359,24 +359,13 @@ class OnlineMapper {
   // `start`: when the call began (its selection is timed from there).
   void estimateStored(int64_t id, SourceSelection selection, bool late,
                       std::chrono::steady_clock::time_point start, KeyframeResult* result);
-  // Fused keyframes whose last fusion had fewer views than the confidence
-  // counts (calibration.max_views, at most the cap): how many, and how many
-  // more depth maps may still bring them more (fuseAgain).
-  struct Underfused {
-    size_t views = 0;
-    int rechecks_left = 0;
-    bool views_checked = false;  // by fuseAgain since the last depth map or pose update
-  };
-  static constexpr int kUnderfusedRechecks = 8;
-  // Everything the mapper keeps of a keyframe with a depth map besides the
-  // store's entry: what it was estimated with (for refine()) and where its
-  // fusion stands. One record per keyframe, so that forgetting one is one erase.
+  // What the mapper keeps of a keyframe with a depth map besides the store's
+  // entry and its fusion (schedule_): what it was estimated with, for
+  // refine(). One record per keyframe, so that forgetting one is one erase.
   struct KeyframeRecord {
     std::vector<int64_t> sources;
     double score = 0;  // total selection score
     int refinements = 0;
-    bool fused = false;  // fused once (even with no point): a later fusion is "again"
-    std::vector<int64_t> fused_with;  // the consistency views of its last fusion
     // The store's revision when refine() last chose its sources anew and kept
     // the estimate (an idle pipeline asks every step; nothing changed since).
     uint64_t selection_checked_at = kNeverChecked;
@@ -387,24 +376,10 @@ class OnlineMapper {
     std::map<int64_t, PinholeCamera> stereo_sources;
     PinholeCamera stereo_reference;
     int pose_reestimates = 0;
-    // Set while it may be fused again with more views (fuseAgain).
-    std::optional<Underfused> underfused;
-    // Fused against a depth map that a refinement replaced since
-    // (refinement.fuse_neighbours_again): fused again once nothing is left to refine.
-    bool fused_against_replaced_map = false;
   };
   // True when the keyframe bundle adjustment has moved a source of the
   // record's estimate (relative to its reference) enough to change the depth.
   bool stereoPosesMoved(int64_t id, const KeyframeRecord& record) const;
-  // The consistency views of a keyframe with a depth map (see step 5).
-  std::vector<int64_t> consistencyViews(int64_t id) const;
-  // The consistency views of keyframe `id` as fusion reads them: local ids
-  // 0..n-1, at the refined relative poses where the pose refinement found them.
-  std::vector<FusionView> consistencyFusionViews(int64_t id, const std::vector<int64_t>& view_ids) const;
-  // Fuses keyframe `id`'s depth map against the consistency views.
-  KeyframePoints fuse(int64_t id, const std::vector<int64_t>& view_ids) const;
-  // Its confidence and published depth against the same views.
-  PublishedDepth publish(int64_t id, const std::vector<int64_t>& view_ids) const;
   // Re-checks every waiting keyframe; fuses those with enough views.
   void fuseWaiting(KeyframeResult* result);
   // Fuses keyframe `id` against `views` now (its points, confidence, map).
@@ -412,14 +387,9 @@ class OnlineMapper {
   // Fuses an already fused keyframe again, as the result of this step.
   void fuseAgainNow(int64_t id, std::vector<int64_t> views, std::chrono::steady_clock::time_point start,
                     KeyframeResult* result);
-  // refinement.fuse_neighbours_again: the keyframes fused against `id`'s
-  // replaced depth map wait to be fused again; one of them now, if any.
-  void noteReplacedDepthMap(int64_t id);
+  // refinement.fuse_neighbours_again: one keyframe fused against a depth
+  // map that a refinement replaced since, fused again now, if any.
   bool fuseAgainstReplacedMaps(KeyframeResult* result);
-  // The most consistency views a keyframe is fused against.
-  size_t consistencyViewCap() const;
-  // The fewest consistency views a keyframe is fused against (at least 1).
-  size_t requiredConsistencyViews() const;
   // Marks stored keyframe `id` done without depth (a source only).
   void markSourceOnly(int64_t id, KeyframeResult* result);
   // Drops a keyframe that left the store from every list and cache (not the map).
@@ -438,17 +408,19 @@ class OnlineMapper {
   MapPoseCorrection poses_;
   EstimateFunction estimate_;
   std::unique_ptr<SerialWorker> estimate_worker_;  // estimates that overlap a deferred fusion
-  bool fusion_deferred_ = false;  // step 5 of the last depth map waits (process(..., next_follows))
-  int64_t deferred_id_ = 0;       // that depth map's keyframe
-  // What a deferred fusion did during an estimate that then threw, or ahead
-  // of a late estimate or refinement: handed out with the next result (fused
-  // keyframes, evictions).
-  KeyframeResult undelivered_;
-  FuseFunction fuse_;
-  PublishFunction publish_;
+  struct DeferredFusion {
+    bool pending = false;  // step 5 of the last depth map waits (process(..., next_follows))
+    int64_t id = 0;        // that depth map's keyframe
+    // What a deferred fusion did during an estimate that then threw, or
+    // ahead of a late estimate or refinement: handed out with the next
+    // result (fused keyframes, evictions).
+    KeyframeResult undelivered;
+  };
+  DeferredFusion deferred_;
   KeyframeStore store_;
   MapUpdater map_;  // the voxel map, updated in the background when map_in_background
-  std::vector<int64_t> waiting_;  // estimated, not fused; oldest first
+  ConsistencyFusion consistency_;  // reads store_ and poses_
+  FusionSchedule schedule_;
   size_t evicted_before_fusion_ = 0;
   std::vector<int64_t> waiting_for_sources_;  // no source view yet; oldest first
   std::map<int64_t, KeyframeRecord> records_;  // keyframes with a depth map, by id
