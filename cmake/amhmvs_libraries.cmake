@@ -3,7 +3,7 @@
 #   amhmvs_core        src/core: camera model, images, option tables
 #   amhmvs_io          src/io: file formats, posed sequences (OpenCV codecs when found)
 #   amhmvs_mvs         src/mvs + cuda/cuda_backend.cu: the AMHMVS estimator, CPU and CUDA backends
-#   amhmvs_mapping     src/mapping + src/pose_refinement + cuda/cuda_fusion.cu: keyframes,
+#   amhmvs_mapping     src/mapping + src/pose_refinement + cuda/cuda_fusion.cu, cuda_depth_filter.cu: keyframes,
 #                      fusion, the map, MappingPipeline (what the nodelet links)
 #   amhmvs_simulation  src/simulation: synthetic scenes (tools and tests only; static)
 #   amhmvs_eval        src/eval: accuracy against ground truth (tools and tests only; static)
@@ -104,15 +104,22 @@ if(AMHMVS_IO_WITH_OPENCV)
   target_link_libraries(amhmvs_io PRIVATE ${OpenCV_LIBS})
 endif()
 
-# A layer's sources with its CUDA file (cuda/CU.cu), or without nvcc the stub
-# (src/FOLDER/CU_unavailable.cpp) that says at run time there is none.
-function(amhmvs_layer_sources_with_cuda var folder cu)
-  amhmvs_layer_sources(sources ${folder} ${cu}_unavailable.cpp)
-  if(AMHMVS_HAVE_CUDA)
-    list(APPEND sources ${CMAKE_CURRENT_SOURCE_DIR}/cuda/${cu}.cu)
-  else()
-    list(APPEND sources ${CMAKE_CURRENT_SOURCE_DIR}/src/${folder}/${cu}_unavailable.cpp)
-  endif()
+# A layer's sources with its CUDA files (cuda/CU.cu for each CU named), or
+# without nvcc their stubs (src/FOLDER/CU_unavailable.cpp) that say at run time
+# there is none.
+function(amhmvs_layer_sources_with_cuda var folder)
+  set(stubs)
+  foreach(cu ${ARGN})
+    list(APPEND stubs ${cu}_unavailable.cpp)
+  endforeach()
+  amhmvs_layer_sources(sources ${folder} ${stubs})
+  foreach(cu ${ARGN})
+    if(AMHMVS_HAVE_CUDA)
+      list(APPEND sources ${CMAKE_CURRENT_SOURCE_DIR}/cuda/${cu}.cu)
+    else()
+      list(APPEND sources ${CMAKE_CURRENT_SOURCE_DIR}/src/${folder}/${cu}_unavailable.cpp)
+    endif()
+  endforeach()
   set(${var} ${sources} PARENT_SCOPE)
 endfunction()
 
@@ -125,7 +132,7 @@ if(AMHMVS_HAVE_CUDA)
 endif()
 
 # --- mapping (with fusion on the GPU, and the pose refinement or its stub) ---
-amhmvs_layer_sources_with_cuda(mapping_sources mapping cuda_fusion)
+amhmvs_layer_sources_with_cuda(mapping_sources mapping cuda_fusion cuda_depth_filter)
 amhmvs_add_layer(mapping SOURCES ${mapping_sources} DEPENDS amhmvs_mvs)
 include(${CMAKE_CURRENT_LIST_DIR}/amhmvs_pose_refinement.cmake)
 

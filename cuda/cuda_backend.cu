@@ -12,38 +12,11 @@
 #include "amhmvs_mapping/mvs/plane_map.h"
 #include "cuda_check.h"
 #include "device_image_pool.h"
+#include "gpu_sampler.h"
 
 namespace amhmvs {
 namespace mvs {
 namespace {
-
-// One source view: a layer of the layered texture.
-struct GpuSourceView {
-  cudaTextureObject_t texture;
-  int layer;
-
-  __device__ float sample(float x, float y) const {
-    // Texture coordinates put pixel centres at +0.5.
-    return tex2DLayered<float>(texture, x + 0.5f, y + 0.5f, layer) * 255.0f;
-  }
-};
-
-// Reference image from global memory (exact integer reads), sources from the
-// layered texture (hardware bilinear filtering).
-struct GpuSampler {
-  static constexpr int kLanes = 1;  // matching costs one at a time (CostBatch)
-
-  const uint8_t* reference_pixels;
-  int width, height;
-  cudaTextureObject_t sources;
-
-  // Intensity at an integer pixel, -1 outside the image.
-  __device__ float reference(int x, int y) const {
-    if (x < 0 || y < 0 || x >= width || y >= height) return -1.0f;
-    return static_cast<float>(__ldg(reference_pixels + y * width + x));
-  }
-  __device__ GpuSourceView sourceView(int view) const { return {sources, view}; }
-};
 
 constexpr int kBlockX = 16, kBlockY = 8;
 // Minimum resident blocks per multiprocessor asked of the compiler for the

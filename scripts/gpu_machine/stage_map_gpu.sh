@@ -7,6 +7,10 @@
 #
 #   bash scripts/gpu_machine/stage_map_gpu.sh [OUT_DIR]      (default: ./build-gpu-map, git-ignored)
 #   device tool, carry OUT_DIR:  bash OUT_DIR/run.sh     (tables and logs in $OUT)
+# With REDKITCHEN_FRAMES=N it also stages the first N frames of
+# ../shared/data/redkitchen_7scenes and REDKITCHEN_TRAJECTORY (amhmvs_odometry's,
+# optional), and RUN=redkitchen.sh OUT_DIR/run.sh maps them there with and
+# without the temporal depth filter (redkitchen.sh says which settings).
 #
 # Build first (scripts/build.sh with nvcc: the catkin build has sm_90).
 set -euo pipefail
@@ -35,6 +39,17 @@ mkdir -p "$tree/data/truth"
 cp -r "$room/cams_gt" "$tree/data/truth/cams"
 ln -s ../room8/images "$tree/data/truth/images"
 [ -f "$room/pair.txt" ] && cp "$room/pair.txt" "$tree/data/truth/"
+
+if [ -n "${REDKITCHEN_FRAMES:-}" ]; then
+  echo "== redkitchen: the first $REDKITCHEN_FRAMES frames"
+  source_dir=${AMHMVS_DATA_DIR:-$here/../shared/data}/redkitchen_7scenes
+  mkdir -p "$tree/data/redkitchen"
+  cp "$source_dir/camera-intrinsics.txt" "$tree/data/redkitchen/"
+  ls "$source_dir" | grep '^frame-' | sort | head -$((3 * REDKITCHEN_FRAMES)) \
+    | while read -r f; do cp "$source_dir/$f" "$tree/data/redkitchen/"; done
+  [ -n "${REDKITCHEN_TRAJECTORY:-}" ] && cp "$REDKITCHEN_TRAJECTORY" "$tree/data/redkitchen_odometry.txt"
+  cp "$here/scripts/gpu_machine/redkitchen_gpu.sh" "$tree/redkitchen.sh"
+fi
 
 cat > "$tree/run.sh" <<'EOF'
 #!/usr/bin/env bash
@@ -84,7 +99,7 @@ cat > "$out/run.sh" <<'EOF'
 set -euo pipefail
 S=$(cd "$(dirname "$0")" && pwd)
 tar xJf "$S/mapgpu.tar.xz" -C /tmp
-exec /tmp/mapgpu/run.sh
+exec /tmp/mapgpu/${RUN:-run.sh}
 EOF
 chmod +x "$out/run.sh"
 ls -l "$out/mapgpu.tar.xz"

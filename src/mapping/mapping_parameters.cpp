@@ -312,6 +312,38 @@ const Table<RollingShutterOptions>& rollingShutterTable() {
   return table;
 }
 
+const Table<TemporalDepthOptions>& depthFilterTable() {
+  using O = TemporalDepthOptions;
+  static const Table<TemporalDepthOptions> table = {
+      switchField<O>("enabled", &O::enabled,
+                     "refine each keyframe's depth with the frames that follow it (a per-pixel depth filter) and "
+                     "publish it again"),
+      advanced(numberField("keyframes", &O::keyframes, "the newest keyframes with a depth map that each frame refines")),
+      advanced(numberField("frames_per_keyframe", &O::frames_per_keyframe,
+                           "frames one keyframe's filter takes; then its depth is final")),
+      advanced(numberField("publish_every", &O::publish_every,
+                           "a keyframe's depth is published again after this many frames")),
+  };
+  return table;
+}
+
+const Table<DepthFilterOptions>& depthFilterPixelTable() {
+  using O = DepthFilterOptions;
+  static const Table<DepthFilterOptions> table = {
+      advanced(numberField("initial_sigma", &O::initial_sigma,
+                           "the filter's start: sigma of the estimated depth, relative to it")),
+      advanced(numberField("pixel_sigma", &O::pixel_sigma, "a measurement's matching error, pixels")),
+      advanced(numberField("search_sigmas", &O::search_sigmas, "each frame searches +- this many sigma")),
+      advanced(numberField("search_samples", &O::search_samples, "depths tried along that epipolar segment")),
+      advanced(numberField("max_cost", &O::max_cost, "a match needs a matching cost (0..2) below this")),
+      advanced(numberField("converged_sigma", &O::converged_sigma,
+                           "published where sigma is at most this, relative to the depth")),
+      advanced(numberField("min_inlier_probability", &O::min_inlier_probability,
+                           "...and the probability that the pixel's measurements are inliers is at least this")),
+  };
+  return table;
+}
+
 // The estimator's and the pose refinement's own tables, with the older
 // command-line names amhmvs_map and amhmvs_depth take (--iterations,
 // --pose_refinement_max_features, --pose_refinement).
@@ -357,6 +389,8 @@ ConfidenceOptions& confidenceOf(MappingParameters& p) { return p.pipeline.mapper
 PoseRefinementOptions& poseRefinementOf(MappingParameters& p) { return p.pipeline.mapper.pose_refinement; }
 NeighbourDepthOptions& neighbourDepthOf(MappingParameters& p) { return p.pipeline.mapper.neighbour_depth; }
 RollingShutterOptions& rollingShutterOf(MappingParameters& p) { return p.pipeline.mapper.rolling_shutter; }
+TemporalDepthOptions& depthFilterOf(MappingParameters& p) { return p.pipeline.mapper.depth_filter; }
+DepthFilterOptions& depthFilterPixelOf(MappingParameters& p) { return p.pipeline.mapper.depth_filter.filter; }
 PatchMatchOptions& estimatorOf(MappingParameters& p) { return p.pipeline.estimator; }
 
 Table<MappingParameters> buildTable() {
@@ -380,6 +414,8 @@ Table<MappingParameters> buildTable() {
   append(&table, "pose_refinement", poseRefinementOf, poseRefinementTable());
   append(&table, "neighbour_depth", neighbourDepthOf, neighbourDepthTable());
   append(&table, "rolling_shutter", rollingShutterOf, rollingShutterTable());
+  append(&table, "depth_filter", depthFilterOf, depthFilterTable());
+  append(&table, "depth_filter", depthFilterPixelOf, depthFilterPixelTable());
   append(&table, "estimator", estimatorOf, estimatorTable());
   return table;
 }
@@ -502,6 +538,8 @@ const std::vector<ParameterGroup>& mappingParameterGroups() {
                           "adjustment with the tracker's noise as the prior; needs OpenCV features2d and Ceres"},
       {"neighbour_depth", "The neighbours' depth maps as the estimator's start (mapping/neighbour_depth.h)"},
       {"rolling_shutter", "Rolling-shutter rectification of each keyframe image (mapping/rolling_shutter.h)"},
+      {"depth_filter", "Temporal depth filter (mapping/temporal_depth.h, not in the paper): each keyframe's depth "
+                       "refined by the frames that follow it and published again"},
       {"estimator", "AMHMVS estimator (mvs/patchmatch_options.h; the paper's defaults)"},
   };
   return groups;

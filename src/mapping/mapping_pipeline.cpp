@@ -30,6 +30,7 @@ PipelineStats statsAfterReset(const PipelineStats& old) {
   fresh.refinement_estimate_failed = old.refinement_estimate_failed;
   fresh.fuse_again_failed = old.fuse_again_failed;
   fresh.deferred_fusion_failed = old.deferred_fusion_failed;
+  fresh.frames_refused = old.frames_refused;
   fresh.bad_pose_updates = old.bad_pose_updates;
   fresh.bad_reconfigurations = old.bad_reconfigurations;
   return fresh;
@@ -60,6 +61,10 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"skipped_kept_as_sources", &PipelineStats::skipped_kept_as_sources},
       {"keyframes_fused", &PipelineStats::keyframes_fused},
       {"keyframes_fused_again", &PipelineStats::keyframes_fused_again},
+      {"frames_observed", &PipelineStats::frames_observed},
+      {"frames_replaced", &PipelineStats::frames_replaced},
+      {"refined_depths", &PipelineStats::refined_depths},
+      {"frames_refused", &PipelineStats::frames_refused},
       {"map_points_added", &PipelineStats::map_points_added},
       {"map_points_skipped_invalid", &PipelineStats::map_points_skipped_invalid},
       {"map_points_over_budget", &PipelineStats::map_points_over_budget},
@@ -168,6 +173,7 @@ void MappingPipeline::init(EstimateFunction primary, EstimateFunction fallback, 
                               const ConfidenceOptions& confidence, const ConfidenceCalibration& calibration) {
     return this->publish(reference, views, confidence, calibration);
   };
+  options_.mapper.depth_filter.on_gpu = backend_ == Backend::kCuda;
   mapper_.reset(new OnlineMapper(options_.mapper, estimate, fuse, publish));
   if (options_.mapper.pose_refinement.enabled && !PoseRefiner::available())
     report(LogLevel::kWarn, "pose_refinement", std::string(PoseRefiner::unavailableMessage()) +
@@ -311,6 +317,20 @@ size_t MappingPipeline::push(Keyframe keyframe) {
   return dropped;
 }
 
+void MappingPipeline::observe(Keyframe frame) {
+  bool replaced = false;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    replaced = frame_ != nullptr;
+    frame_.reset(new Keyframe(std::move(frame)));
+  }
+  if (replaced) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.frames_replaced;
+  }
+  queue_cv_.notify_all();
+}
+
 std::string MappingPipeline::overloadAdvice() const {
   double interval_s;
   {
@@ -378,6 +398,7 @@ size_t MappingPipeline::requestReset() {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     discarded = queue_.size();
     queue_.clear();
+    frame_.reset();
     overflowed_ = false;
     pose_updates_.clear();
     reset_requested_ = true;
@@ -403,10 +424,10 @@ void MappingPipeline::setOptions(const OnlineMapperOptions& mapper, const PatchM
 bool MappingPipeline::waitForWork(double timeout_s) {
   std::unique_lock<std::mutex> lock(queue_mutex_);
   const auto pending = [this] {
-    return woken_ || !queue_.empty() || !pose_updates_.empty() || pending_options_ || reset_requested_;
+    return woken_ || !queue_.empty() || frame_ || !pose_updates_.empty() || pending_options_ || reset_requested_;
   };
   queue_cv_.wait_for(lock, std::chrono::duration<double>(timeout_s), pending);
-  const bool work = !queue_.empty() || !pose_updates_.empty() || pending_options_ || reset_requested_;
+  const bool work = !queue_.empty() || frame_ || !pose_updates_.empty() || pending_options_ || reset_requested_;
   woken_ = false;
   return work;
 }
@@ -443,6 +464,7 @@ void MappingPipeline::applyPending() {
     try {
       const std::string problems = next->second.validate();
       if (!problems.empty()) throw InputError("estimator options:\n" + problems);
+      next->first.depth_filter.on_gpu = backend_ == Backend::kCuda;
       mapper_->setOptions(next->first);  // a new voxel size rebuilds the map
       if (estimator_) {  // an injected estimator (tests) stays as it is
         withdrawDeviceOffers(/*keep_last=*/false);  // the old estimator's buffers go with it
@@ -488,6 +510,7 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
                            : work == Work::kDeferredFusion ? "deferred fusion"
                            : work == Work::kLate           ? "late"
                            : work == Work::kFuseAgain      ? "fusion again"
+                           : work == Work::kFrame          ? "frame"
                                                            : "refinement";
   uint64_t PipelineStats::*failure = nullptr;
   std::string reason;
@@ -517,6 +540,7 @@ bool MappingPipeline::run(Work work, int64_t id, const std::function<bool(Keyfra
       failure = work == Work::kLate             ? &PipelineStats::late_estimate_failed
                 : work == Work::kFuseAgain      ? &PipelineStats::fuse_again_failed
                 : work == Work::kDeferredFusion ? &PipelineStats::deferred_fusion_failed
+                : work == Work::kFrame          ? &PipelineStats::frames_refused
                                                 : &PipelineStats::refinement_estimate_failed;
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -572,6 +596,8 @@ void MappingPipeline::account(const PipelineOutput& output) {
   }
   stats_.last_total_ms = result.times.total_ms;
   for (const FusedKeyframe& fused : result.fused) ++(fused.again ? stats_.keyframes_fused_again : stats_.keyframes_fused);
+  stats_.refined_depths += result.refined_depths.size();
+  if (result.frame_only && options_.mapper.depth_filter.enabled) ++stats_.frames_observed;
 }
 
 std::vector<PipelineOutput> MappingPipeline::step() {
@@ -596,6 +622,10 @@ std::vector<PipelineOutput> MappingPipeline::step() {
     std::lock_guard<std::mutex> queue_lock(queue_mutex_);
     return queue_.empty();
   };
+  const auto takeFrame = [this] {
+    std::lock_guard<std::mutex> queue_lock(queue_mutex_);
+    return std::move(frame_);
+  };
   if (have_keyframe) {
     const double wait_ms = 1000 * (steadySeconds() - next.pushed_at);
     const int64_t id = next.keyframe.id;
@@ -619,6 +649,18 @@ std::vector<PipelineOutput> MappingPipeline::step() {
   if (options_.late_depth_maps)
     late_work = run(Work::kLate, -1, [&](KeyframeResult* result) { return mapper_->estimateLate(result); }, &outputs, 0);
   queue_empty = queueEmpty();
+  // A frame is worth most while it is new: before the idle work.
+  if (queue_empty) {
+    if (std::unique_ptr<Keyframe> frame = takeFrame()) {
+      worked |= run(Work::kFrame, -1,
+                    [&](KeyframeResult* result) {
+                      result->frame_only = true;
+                      result->refined_depths = mapper_->observe(*frame);
+                      return true;
+                    },
+                    &outputs, 0);
+    }
+  }
   if (!late_work && queue_empty)
     late_work = run(Work::kFuseAgain, -1, [&](KeyframeResult* result) { return mapper_->fuseAgain(result); }, &outputs, 0);
   if (!late_work && queue_empty)
@@ -660,7 +702,7 @@ std::vector<PipelineOutput> MappingPipeline::step() {
   {
     std::lock_guard<std::mutex> queue_lock(queue_mutex_);
     // Idle: nothing was done and nothing waits (every output of the input so far is out).
-    stats_.idle = !worked && queue_.empty();
+    stats_.idle = !worked && queue_.empty() && !frame_;
   }
   return outputs;
 }

@@ -71,6 +71,7 @@ std::string OnlineMapperOptions::validate() const {
   appendProblems("pose_refinement", pose_refinement.validate(), &out);
   appendProblems("neighbour_depth", neighbour_depth.validate(), &out);
   appendProblems("rolling_shutter", rolling_shutter.validate(), &out);
+  appendProblems("depth_filter", depth_filter.validate(), &out);
   if (fusion.min_consistent_views > kMaxSourceViews)
     out << "fusion: min_consistent_views must be at most " << kMaxSourceViews << " (the most consistency views)\n";
   return out.str();
@@ -89,6 +90,7 @@ OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction 
   if (options.pose_refinement.enabled) pose_refiner_.reset(new PoseRefiner(options.pose_refinement));
   rolling_shutter_.setOptions(options.rolling_shutter);
   consistency_.setOptions(consistencyFusionOptions(options));
+  temporal_.setOptions(options.depth_filter);
 }
 
 KeyframeResult OnlineMapper::process(Keyframe keyframe, bool next_follows) {
@@ -99,6 +101,12 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe, bool next_follows) {
   noteEvicted(store_.add(std::move(keyframe)), &result);
   rolling_shutter_.rectifyStored(result.id, estimates_started_, &store_);
   handOutUndelivered(&result);
+  if (options_.depth_filter.enabled && store_.contains(result.id)) {
+    const Clock::time_point filter_start = Clock::now();
+    temporal_.observe(result.id, store_.keyframe(result.id).camera, store_.entry(result.id).grayImage(),
+                      &result.refined_depths);
+    result.times.depth_filter_ms += millisecondsSince(filter_start);
+  }
   result.times.store_ms = millisecondsSince(start);
   const int64_t id = result.id;
   const Clock::time_point selection_start = Clock::now();
@@ -134,6 +142,15 @@ void OnlineMapper::markSourceOnly(int64_t id, KeyframeResult* result) {
   DepthMap none;
   none.depth = ImageF(camera.width, camera.height, 1, std::numeric_limits<float>::quiet_NaN());
   noteEvicted(store_.attachDepth(id, std::move(none)), result);
+}
+
+std::vector<RefinedDepth> OnlineMapper::observe(const Keyframe& frame) {
+  std::vector<RefinedDepth> refined;
+  if (!options_.depth_filter.enabled || temporal_.active() == 0) return refined;
+  const std::string problem = frame.camera.validate();
+  if (!problem.empty()) throw InputError("frame: " + problem);
+  temporal_.observe(/*id=*/std::numeric_limits<int64_t>::min(), frame.camera, toGray(frame.image), &refined);
+  return refined;
 }
 
 std::vector<int64_t> OnlineMapper::addSourceView(Keyframe keyframe) {
@@ -326,6 +343,12 @@ void OnlineMapper::estimateAndFuse(int64_t id, bool defer_fusion, KeyframeResult
   noteEvicted(store_.attachDepth(id, result->depth), result);
   result->times.store_ms += millisecondsSince(start);
   if (!store_.contains(id)) return;
+  if (options_.depth_filter.enabled && !result->refined) {
+    start = Clock::now();
+    temporal_.start(id, store_.keyframe(id).stamp, store_.keyframe(id).camera, store_.entry(id).grayImage(),
+                    *result->depth, &result->refined_depths);
+    result->times.depth_filter_ms += millisecondsSince(start);
+  }
   if (result->refined && options_.refinement.fuse_neighbours_again) schedule_.depthMapReplaced(id);
   // A keyframe with a depth map waits for fusion (a refined one again); this
   // depth map may also complete earlier waiting keyframes.
@@ -378,6 +401,7 @@ OnlineMapper::Forgotten OnlineMapper::forgetKeyframe(int64_t id) {
     forgotten.was_waiting_for_sources = true;
   }
   forgotten.was_waiting_for_fusion = schedule_.forget(id);
+  temporal_.forget(id);
   return forgotten;
 }
 
@@ -453,6 +477,7 @@ void OnlineMapper::fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResul
   if (options_.confidence.enabled) {
     start = Clock::now();
     fused.published = consistency_.publish(id, fused.consistency_ids);
+    if (options_.depth_filter.enabled) temporal_.setPublished(id, fused.published);
     result->times.confidence_ms += millisecondsSince(start);
   }
   if (!fused.points->empty()) {
@@ -511,6 +536,7 @@ bool OnlineMapper::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_wor
 void OnlineMapper::reset() {
   store_ = KeyframeStore(options_.store);
   schedule_.clear();
+  temporal_.clear();
   evicted_before_fusion_ = 0;
   waiting_for_sources_.clear();
   evicted_without_depth_ = 0;
@@ -550,6 +576,8 @@ void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
   }
   rolling_shutter_.setOptions(kept.rolling_shutter);
   consistency_.setOptions(consistencyFusionOptions(kept));
+  temporal_.setOptions(kept.depth_filter);
+  if (!kept.depth_filter.enabled) temporal_.clear();
   options_ = kept;
 }
 

@@ -384,7 +384,10 @@ void MappingInputs::offer(Frame frame, const geometry_msgs::Pose& pose, bool pic
         count(&InputStats::blurred_frames_taken_anyway);
       switch (decision) {
         case amhmvs::PickDecision::kKeyframe: break;
-        case amhmvs::PickDecision::kTooClose: count(&InputStats::frames_not_keyframes); return;
+        case amhmvs::PickDecision::kTooClose:
+          count(&InputStats::frames_not_keyframes);
+          offerBetweenKeyframes(frame, std::move(converted));
+          return;
         case amhmvs::PickDecision::kPureRotation: count(&InputStats::frames_refused_pure_rotation); return;
         case amhmvs::PickDecision::kBlurred: count(&InputStats::frames_refused_blurred); return;
       }
@@ -400,6 +403,16 @@ void MappingInputs::offer(Frame frame, const geometry_msgs::Pose& pose, bool pic
   }
   count(&InputStats::keyframes_sent);
   callbacks_.keyframe(std::move(keyframe), frame.header);
+}
+
+void MappingInputs::offerBetweenKeyframes(const Frame& frame, amhmvs::ImageU8 converted) {
+  if (!callbacks_.frame || !config_.pipeline.mapper.depth_filter.enabled) return;
+  try {
+    callbacks_.frame(toKeyframe(frame, std::move(converted)));
+  } catch (const amhmvs::InputError& e) {
+    // Counted as a frame that is no keyframe already; the filter only misses it.
+    ROS_DEBUG_THROTTLE(10, "frame between keyframes not used by the depth filter: %s", e.what());
+  }
 }
 
 amhmvs::Keyframe MappingInputs::toKeyframe(const Frame& frame, amhmvs::ImageU8 converted) const {

@@ -88,6 +88,7 @@ void MappingNodelet::onInit() {
     pipeline_->push(std::move(keyframe));
   };
   callbacks.pose_update = [this](int64_t id, const Eigen::Isometry3d& pose) { pipeline_->pushPoseUpdate(id, pose); };
+  callbacks.frame = [this](amhmvs::Keyframe frame) { pipeline_->observe(std::move(frame)); };
   inputs_.reset(new MappingInputs(nh, pnh, config_, std::move(callbacks)));
   NODELET_INFO("amhmvs mapping: input mode %s, queue %zu, up to %d sources, default depth %.2f..%.2f m, "
                "max image size %d, voxel size %.3f m (published with %d or more points), backend %s",

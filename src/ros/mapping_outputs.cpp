@@ -73,8 +73,22 @@ void MappingOutputs::publishViewFrame(const amhmvs::KeyframeResult& result, cons
            anchor.x(), anchor.y(), anchor.z(), config_.node.fixed_frame.c_str(), static_cast<long>(result.id));
 }
 
+void MappingOutputs::publishRefinedDepths(const amhmvs::KeyframeResult& result, const KeyframeHeaders& headers) {
+  // depth_filter: a keyframe's depth again, refined by the frames since (its own stamp and frame).
+  for (const amhmvs::RefinedDepth& refined : result.refined_depths) {
+    std_msgs::Header refined_header;
+    if (!headers.get(refined.id, &refined_header)) continue;
+    publishDepth(refined.published.depth, refined.camera, refined_header,
+                 [&] { return confidenceImageMsg(refined.published, refined_header); });
+  }
+}
+
 void MappingOutputs::publish(const amhmvs::KeyframeResult& result, const KeyframeHeaders& headers,
                              const amhmvs::MappingPipeline& pipeline) {
+  if (result.frame_only) {  // a frame between keyframes: refined depths only
+    publishRefinedDepths(result, headers);
+    return;
+  }
   std_msgs::Header header;
   if (!headers.get(result.id, &header)) return;  // forgotten by a reset meanwhile
   publishViewFrame(result, header.stamp);
@@ -101,6 +115,7 @@ void MappingOutputs::publish(const amhmvs::KeyframeResult& result, const Keyfram
   } else if (result.has_depth) {
     publishDepth(result.depth->depth, result.camera, header, [&] { return confidenceImageMsg(result.depth, header); });
   }
+  publishRefinedDepths(result, headers);
   // keyframe_cloud: each keyframe this result fused (this one, earlier ones
   // that waited for enough consistency views, or a refined one again), with
   // that keyframe's header.

@@ -35,17 +35,31 @@ MappingPipeline::Log stderrLog(bool quiet) {
   };
 }
 
-// Offline: each keyframe waits for the pipeline (push, then step until idle).
+// Offline: each keyframe waits for the pipeline (push, then step until idle);
+// with depth_filter.enabled so does each frame of the window between it and
+// the next keyframe (observe()).
 void runOffline(const PosedSequence& sequence, PickedKeyframes* picked, const MapToolOptions& options,
                 const StopRequest& stop, MappingPipeline* pipeline, MapOutputs* outputs, MapRunTotals* totals) {
-  for (size_t index : picked->indices) {
+  const auto add = [outputs](const PipelineOutput& output) { outputs->add(output); };
+  const bool filter = options.pipeline.mapper.depth_filter.enabled;
+  for (size_t k = 0; k < picked->indices.size(); ++k) {
     if (stop.requested()) break;
+    const size_t index = picked->indices[k];
     const Clock::time_point read_start = Clock::now();
     Keyframe keyframe = makeKeyframe(sequence.frames[index], options, picked->takeDecoded(index));
     totals->reading_s += secondsSince(read_start);
     pipeline->push(std::move(keyframe));
     ++totals->keyframes_pushed;
-    pipeline->runUntilIdle([outputs](const PipelineOutput& output) { outputs->add(output); });
+    pipeline->runUntilIdle(add);
+    const size_t next = k + 1 < picked->indices.size() ? picked->indices[k + 1] : index;
+    for (size_t frame = index + options.frames.stride; filter && frame < next && !stop.requested();
+         frame += options.frames.stride) {
+      const Clock::time_point frame_start = Clock::now();
+      Keyframe between = makeKeyframe(sequence.frames[frame], options);
+      totals->reading_s += secondsSince(frame_start);
+      pipeline->observe(std::move(between));
+      pipeline->runUntilIdle(add);
+    }
   }
 }
 

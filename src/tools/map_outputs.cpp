@@ -33,7 +33,8 @@ const std::vector<std::pair<const char*, double StageTimes::*>>& stageFields() {
       {"depth_range_ms", &StageTimes::depth_range_ms}, {"problem_ms", &StageTimes::problem_ms},
       {"pose_refinement_ms", &StageTimes::pose_refinement_ms}, {"estimate_ms", &StageTimes::estimate_ms},
       {"fusion_ms", &StageTimes::fusion_ms},                   {"confidence_ms", &StageTimes::confidence_ms},
-      {"map_ms", &StageTimes::map_ms},                         {"total_ms", &StageTimes::total_ms}};
+      {"map_ms", &StageTimes::map_ms},                         {"depth_filter_ms", &StageTimes::depth_filter_ms},
+      {"total_ms", &StageTimes::total_ms}};
   return fields;
 }
 
@@ -328,6 +329,12 @@ void MapOutputs::writeFiles(const KeyframeResult& result) {
     if (options_.write_confidence)
       writePfm(dir_ + "/confidence/" + id6(fused.id) + ".pfm", fused.published.confidence);
   }
+  // depth_filter: published again, refined by the frames since.
+  for (const RefinedDepth& refined : result.refined_depths) {
+    writeDepth(refined.id, refined.published.depth, depth_ranges_[refined.id]);
+    if (options_.write_confidence)
+      writePfm(dir_ + "/confidence/" + id6(refined.id) + ".pfm", refined.published.confidence);
+  }
   if (!options_.write_clouds) return;
   for (const FusedKeyframe& fused : result.fused) {
     writePly(dir_ + "/clouds/" + id6(fused.id) + ".ply",
@@ -353,18 +360,22 @@ bool MapOutputs::publishesWhenFused() const { return options_.pipeline.mapper.co
 std::string MapOutputs::comparePublished(const KeyframeResult& result) {
   JsonFields list;
   std::string rows;
-  for (const FusedKeyframe& fused : result.fused) {
-    const auto frame_it = frame_of_id_.find(fused.id);
-    if (fused.published.empty() || frame_it == frame_of_id_.end()) continue;
+  // The summary counts each keyframe's last published depth.
+  const auto compare = [&](int64_t id, const PinholeCamera& camera, const PublishedDepth& published, int frames) {
+    const auto frame_it = frame_of_id_.find(id);
+    if (published.empty() || frame_it == frame_of_id_.end()) return;
     const PosedFrame& frame = sequence_.frames[frame_it->second];
-    if (!frame.ground_truth.present()) continue;
-    const DepthComparison comparison =
-        compareDepth(fused.published.depth, groundTruthDepthIn(frame.ground_truth, fused.camera));
-    published_accuracy_[fused.id] = comparison;
+    if (!frame.ground_truth.present()) return;
+    const DepthComparison comparison = compareDepth(published.depth, groundTruthDepthIn(frame.ground_truth, camera));
+    published_accuracy_[id] = comparison;
     JsonFields row = accuracyFields(comparison);
-    row.add("id", std::to_string(fused.id));
+    row.add("id", std::to_string(id));
+    if (frames > 0) row.add("filter_frames", std::to_string(frames));
     rows += (rows.empty() ? "" : ", ") + row.object();
-  }
+  };
+  for (const FusedKeyframe& fused : result.fused) compare(fused.id, fused.camera, fused.published, 0);
+  for (const RefinedDepth& refined : result.refined_depths)
+    compare(refined.id, refined.camera, refined.published, refined.frames);
   return "[" + rows + "]";
 }
 
@@ -389,6 +400,11 @@ bool MapOutputs::compareWithTruth(const KeyframeResult& result, const PosedFrame
 
 void MapOutputs::write(const Row& row) {
   const KeyframeResult& result = row.output.result;
+  if (result.frame_only) {  // a frame between keyframes: refined depths only, no row
+    writeFiles(result);
+    comparePublished(result);
+    return;
+  }
   const auto frame_it = frame_of_id_.find(result.id);
   const PosedFrame* frame = frame_it == frame_of_id_.end() ? nullptr : &sequence_.frames[frame_it->second];
   ++kinds_[kindOf(result)];

@@ -21,6 +21,7 @@
 // usage: amhmvs_gpu_tests DATA_DIR [--sanitize] [--skip-cpu-fountain]
 // DATA_DIR is the output of scripts/gpu_machine/prepare_gpu_data.py.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -36,6 +37,7 @@
 #include "amhmvs_mapping/io/image_io.h"
 #include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/mapping/depth_confidence.h"
+#include "amhmvs_mapping/mapping/depth_filter.h"
 #include "amhmvs_mapping/mapping/depth_map_fuser.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mvs/coarse_to_fine.h"
@@ -694,6 +696,56 @@ double fusionDifference(const FusionResult& a, const FusionResult& b, double* ma
   return total ? static_cast<double>(differing) / total : 0.0;
 }
 
+// The temporal depth filter on both backends (the same filterPixel): from
+// the rendered keyframe's depth 3 % off, 8 frames; the GPU's beliefs must
+// match the CPU's (texture fetches emulated on the CPU: equal up to float
+// rounding), and per update time after warm-up (INFO).
+void depthFilterAgreement(int width, int height) {
+  const SyntheticWorld world = makeSlantedPlanesWorld(3);
+  const std::vector<PinholeCamera> cameras = makeSidewaysCameras(9, width, height, 0.15);
+  std::vector<ImageU8> gray;
+  DepthMap start;
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    RenderedView view = renderView(world, cameras[i], 2);
+    gray.push_back(toGray(view.image));
+    if (i == 0) {
+      start.depth = view.depth;
+      start.normal = view.normal;
+    }
+  }
+  for (float& depth : start.depth.data) depth *= 1.03f;
+  KeyframeDepthFilter cpu(cameras[0], gray[0], start, DepthFilterOptions());
+  KeyframeDepthFilter gpu(cameras[0], gray[0], start, DepthFilterOptions(), /*on_gpu=*/true);
+  expect(gpu.onGpu(), "depth filter: on the GPU");
+  size_t cpu_matched = 0, gpu_matched = 0;
+  std::vector<double> update_ms;
+  for (size_t i = 1; i < cameras.size(); ++i) {
+    cpu_matched += cpu.update(cameras[i], gray[i]).matched;
+    const auto begin = std::chrono::steady_clock::now();
+    gpu_matched += gpu.update(cameras[i], gray[i]).matched;
+    update_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
+  }
+  const ImageF cpu_mean = cpu.mean(), gpu_mean = gpu.mean(), cpu_depth = cpu.depth(), gpu_depth = gpu.depth();
+  size_t both = 0, close = 0, published_same = 0;
+  for (size_t i = 0; i < cpu_mean.data.size(); ++i) {
+    if (!std::isfinite(cpu_mean.data[i])) continue;
+    ++both;
+    if (std::abs(gpu_mean.data[i] / cpu_mean.data[i] - 1) < 1e-3) ++close;
+    if (std::isfinite(cpu_depth.data[i]) == std::isfinite(gpu_depth.data[i])) ++published_same;
+  }
+  std::sort(update_ms.begin() + 1, update_ms.end());
+  char text[300];
+  std::snprintf(text, sizeof(text),
+                "depth filter %dx%d: GPU mean within 0.1 %% of the CPU's at %.3f %% of %zu pixels, published alike at "
+                "%.3f %%, matches %zu / %zu",
+                width, height, 100.0 * close / both, both, 100.0 * published_same / both, gpu_matched, cpu_matched);
+  expect(both > 0 && close >= 0.995 * both && published_same >= 0.995 * both &&
+             std::abs(static_cast<double>(gpu_matched) - cpu_matched) <= 0.005 * cpu_matched,
+         text);
+  std::printf("INFO  depth filter %dx%d: GPU update (upload, kernel, counts) median %.2f ms after warm-up\n", width,
+              height, update_ms[1 + (update_ms.size() - 1) / 2]);
+}
+
 void gpuFusion(int width, int height) {
   const NoisyRoom room(6, width, height);
   const FusionOptions options = FusionOptions::reprojection();
@@ -939,6 +991,7 @@ int main(int argc, char** argv) {
              "sanitizer: resident pools with evictions ran (one and two scales)");
       gpuFusion(96, 72);
       gpuAgreement(96, 72);
+      depthFilterAgreement(96, 72);
       fusionFromEstimatorOutputs(data, 96);
       return failures ? 1 : 0;
     }
@@ -949,6 +1002,8 @@ int main(int argc, char** argv) {
     residentPool(data);
     gpuFusion(640, 480);
     gpuAgreement(640, 480);
+    depthFilterAgreement(320, 240);
+    depthFilterAgreement(640, 480);
     fusionFromEstimatorOutputs(data, 384);
     middlebury(data, Backend::kCuda, true);
     middlebury(data, Backend::kCpu, false);

@@ -5,6 +5,7 @@
 //   MappingPipeline pipeline(options, log);
 //   pipeline.push(std::move(keyframe));       // any thread: bounded queue
 //   pipeline.pushPoseUpdate(id, pose);        // any thread: loop closure
+//   pipeline.observe(std::move(frame));       // any thread: a frame between keyframes (depth_filter)
 //   for (const PipelineOutput& out : pipeline.step()) { ...publish / write... }
 //   PipelineStats stats = pipeline.stats();   // any thread: typed counters
 //
@@ -35,8 +36,9 @@
 //      a deferred fusion whose next keyframe did not come (a reset, a
 //      dropped keyframe) runs alone when the queue is empty;
 //   3. one late depth map (a keyframe that had no source when it arrived and
-//      has one now);
-//   4. only when the queue is empty and 3 did nothing: one keyframe fused
+//      has one now); then, when the queue is empty, the newest frame between
+//      keyframes (observe(): it refines the newest keyframes' depth);
+//   4. only when the queue is empty and 3 did no late depth map: one keyframe fused
 //      again with more views (OnlineMapper::fuseAgain), else one refinement.
 // New keyframes thus keep their rate; late work fills the gaps. Every output
 // carries the keyframe's own id and stamp (late and refined results too).
@@ -113,6 +115,7 @@ struct PipelineStats {
   uint64_t refinement_estimate_failed = 0;
   uint64_t fuse_again_failed = 0;      // fusions of an earlier keyframe with more views that threw
   uint64_t deferred_fusion_failed = 0;  // deferred fusions run alone (their next keyframe did not come) that threw
+  uint64_t frames_refused = 0;          // frames between keyframes (observe()) the mapper refused (InputError)
   // Work done.
   uint64_t depth_maps = 0;             // first depth maps (late ones included)
   uint64_t late_depth_maps = 0;
@@ -124,6 +127,12 @@ struct PipelineStats {
   uint64_t skipped_kept_as_sources = 0;    // skipped keyframes stored as source views of the newer ones
   uint64_t keyframes_fused = 0;
   uint64_t keyframes_fused_again = 0;
+  // depth_filter: frames between keyframes (observe()) that refined the
+  // newest keyframes' depth, those replaced by a newer one before the mapping
+  // thread took them (it takes the newest), and the refined depths published.
+  uint64_t frames_observed = 0;
+  uint64_t frames_replaced = 0;
+  uint64_t refined_depths = 0;
   uint64_t map_points_added = 0;
   uint64_t map_points_skipped_invalid = 0;
   uint64_t map_points_over_budget = 0;
@@ -192,6 +201,11 @@ class MappingPipeline {
   // were dropped to make room (also counted and logged). Validation happens
   // in step() (a bad keyframe is dropped there, counted, logged).
   size_t push(Keyframe keyframe);
+  // A frame between keyframes (any thread; it does nothing without
+  // mapper.depth_filter.enabled): it refines the depth of the
+  // newest keyframes when no keyframe waits. One waits at a time: a newer
+  // one replaces it (counted: frames_replaced).
+  void observe(Keyframe frame);
   // Loop closure (any thread): applied at the start of the next step().
   void pushPoseUpdate(int64_t id, const Eigen::Isometry3d& camera_to_world);
   // Forgets every queued and stored keyframe and the map at the start of the
@@ -234,7 +248,7 @@ class MappingPipeline {
   void init(EstimateFunction primary, EstimateFunction fallback, const std::string& backend_name);
   void applyPending();
   // The kinds of work of a step (what a failure of each counts as).
-  enum class Work { kNewKeyframe, kDeferredFusion, kLate, kFuseAgain, kRefinement };
+  enum class Work { kNewKeyframe, kDeferredFusion, kLate, kFuseAgain, kRefinement, kFrame };
   bool fusionOverlaps() const;
   // Runs one mapper call with error handling: false when it had nothing to
   // do, true when it worked or threw (counted and logged).
@@ -291,6 +305,7 @@ class MappingPipeline {
   mutable std::mutex queue_mutex_;   // queue_ and pending work
   std::condition_variable queue_cv_;
   std::vector<Queued> queue_;        // oldest first
+  std::unique_ptr<Keyframe> frame_;  // the newest frame between keyframes (observe())
   bool overflowed_ = false;          // the queue dropped a keyframe since the last skip to the newest
   double last_push_at_ = 0;          // steady seconds of the last push (0: none yet)
   double mean_push_interval_s_ = 0;  // running mean of the seconds between pushes

@@ -28,7 +28,13 @@
 //   7. with confidence.enabled, when it is fused: its calibrated per-pixel
 //      confidence against the same consistency views and its depth map as
 //      published, masked below confidence.min_probability
-//      (depth_confidence.h; FusedKeyframe::published).
+//      (depth_confidence.h; FusedKeyframe::published);
+//   8. with depth_filter.enabled (temporal_depth.h, not in the paper): its
+//      first depth map starts a per-pixel depth filter that every later
+//      frame refines (the next keyframes, and the frames between them given
+//      to observe()), while it is among the depth_filter.keyframes newest;
+//      its depth is published again every depth_filter.publish_every frames
+//      (KeyframeResult::refined_depths).
 //
 // Refinement (refine()): a keyframe's sources are chosen among the keyframes
 // stored when it is estimated, so early keyframes of a run, and any keyframe
@@ -89,6 +95,7 @@
 #include "amhmvs_mapping/mapping/rolling_shutter.h"
 #include "amhmvs_mapping/mapping/rolling_shutter_rectifier.h"
 #include "amhmvs_mapping/mapping/source_selection.h"
+#include "amhmvs_mapping/mapping/temporal_depth.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 
 namespace amhmvs {
@@ -145,6 +152,8 @@ struct OnlineMapperOptions {
   // stored (off: readout_s 0), with the angular velocity from the tracker's
   // poses of it and the keyframe before it.
   RollingShutterOptions rolling_shutter;
+  // Step 8: the temporal depth filter (off).
+  TemporalDepthOptions depth_filter;
   // The voxel-map update of a fused keyframe runs on a worker thread while
   // the caller goes on (with a GPU estimator: while the next keyframe is
   // estimated, when the CPU would otherwise wait); every later use of the
@@ -189,6 +198,7 @@ struct StageTimes {
   double fusion_ms = 0;        // consistency views and checks of the keyframes fused by this result
   double confidence_ms = 0;    // their confidence and published depth (confidence.enabled)
   double map_ms = 0;           // voxel map updates, or waiting for the one in the background
+  double depth_filter_ms = 0;  // step 8: filters started and refined by this keyframe
   // A deferred fusion that ran during this estimate (process(..., next_follows)),
   // wall clock: inside estimate_ms; its parts are in store, fusion, confidence and map too.
   double fused_during_estimate_ms = 0;
@@ -202,6 +212,7 @@ struct KeyframeResult {
   bool refined = false;          // from refine(): a new depth map of an earlier keyframe
   bool fused_again = false;      // from fuseAgain(): an earlier keyframe fused again, no new depth map
   bool deferred_fusion = false;  // from fuseDeferred(): earlier depth maps fused, no new depth map
+  bool frame_only = false;       // from a frame between keyframes (observe()): refined_depths only
   // refine(): the new depth map was worse by the estimator's evidence and was
   // dropped; the keyframe keeps its depth map and points (`depth` is the
   // dropped one, nothing was fused). refinement_evidence says why.
@@ -218,6 +229,9 @@ struct KeyframeResult {
   // this keyframe when it had enough consistency views at once.
   std::vector<FusedKeyframe> fused;
   bool fused_now = false;        // this keyframe is among `fused`
+  // Step 8: keyframes whose depth is published again, refined by the frames
+  // since (this keyframe among them).
+  std::vector<RefinedDepth> refined_depths;
   std::vector<int64_t> evicted;  // keyframes evicted from the store
   std::vector<int64_t> evicted_before_fusion;  // of those, the ones that waited for fusion
   size_t waiting_for_fusion = 0;  // keyframes waiting after this call
@@ -262,6 +276,12 @@ class OnlineMapper {
   bool fusionDeferred() const {
     return deferred_.pending || !deferred_.undelivered.fused.empty() || !deferred_.undelivered.evicted.empty();
   }
+
+  // A frame between keyframes (its image and camera as a keyframe's; no id of
+  // the store): with depth_filter.enabled it refines the depth of the newest
+  // keyframes (step 8). Returns the depths due to be published again.
+  // Throws InputError for an image that does not fit its camera.
+  std::vector<RefinedDepth> observe(const Keyframe& frame);
 
   // Stores a keyframe as a source view only: no depth map of its own, ever
   // (e.g. one skipped for a newer keyframe while estimation lags behind).
@@ -421,6 +441,7 @@ class OnlineMapper {
   MapUpdater map_;  // the voxel map, updated in the background when map_in_background
   ConsistencyFusion consistency_;  // reads store_ and poses_
   FusionSchedule schedule_;
+  TemporalDepth temporal_;  // step 8
   size_t evicted_before_fusion_ = 0;
   std::vector<int64_t> waiting_for_sources_;  // no source view yet; oldest first
   std::map<int64_t, KeyframeRecord> records_;  // keyframes with a depth map, by id

@@ -86,6 +86,9 @@ class MappingInputs {
   struct Callbacks {
     std::function<void(amhmvs::Keyframe keyframe, const std_msgs::Header& header)> keyframe;
     std::function<void(int64_t id, const Eigen::Isometry3d& camera_to_world)> pose_update;
+    // A frame the picker did not take, converted as a keyframe is (only with
+    // depth_filter/enabled: it refines the newest keyframes' depth).
+    std::function<void(amhmvs::Keyframe frame)> frame;
   };
 
   // Subscribes (in `nh`, transport hints from `pnh`).
@@ -149,6 +152,8 @@ class MappingInputs {
   // keyframe; throws amhmvs::InputError when they do not fit together.
   // `converted`: the image already converted (imageFromMsg), else empty.
   amhmvs::Keyframe toKeyframe(const Frame& frame, amhmvs::ImageU8 converted) const;
+  // A frame that is no keyframe, to callbacks_.frame (depth_filter/enabled).
+  void offerBetweenKeyframes(const Frame& frame, amhmvs::ImageU8 converted);
   // One input topic: its resolved name, publishers and last arrival.
   struct Topic {
     std::string name;

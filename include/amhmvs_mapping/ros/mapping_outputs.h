@@ -76,6 +76,7 @@ class MappingOutputs {
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> view_broadcaster_;
   std::atomic<bool> view_published_{false};
   void publishViewFrame(const amhmvs::KeyframeResult& result, const ros::Time& stamp);
+  void publishRefinedDepths(const amhmvs::KeyframeResult& result, const KeyframeHeaders& headers);
   // depth/image, depth_mm/image, confidence/image (made only when
   // subscribed) and depth/preview of one depth map.
   void publishDepth(const amhmvs::ImageF& depth, const amhmvs::PinholeCamera& camera, const std_msgs::Header& header,

@@ -472,3 +472,46 @@ TEST(MappingPipeline, CpuBackendIsChosenWithAClearLineWhenThereIsNoGpu) {
 
 }  // namespace
 }  // namespace amhmvs
+
+namespace amhmvs {
+namespace {
+
+// Frames between keyframes wait in one slot (the newest replaces an older
+// one, counted), run only when no keyframe waits, and come out as frame-only
+// results with the refined depths; a bad frame is counted and logged.
+TEST(MappingPipeline, FramesBetweenKeyframesRefineDepthWhenNoKeyframeWaits) {
+  PipelineOptions options = wallPipeline();
+  options.mapper.depth_filter.enabled = true;
+  options.mapper.depth_filter.publish_every = 1;
+  WallPipeline wall(options);
+  MappingPipeline& pipeline = wall.pipeline;
+  for (int i = 0; i < 3; ++i) pipeline.push(keyframeAt(i, 0.5 * i));
+  pipeline.runUntilIdle([](const PipelineOutput&) {});
+  pipeline.observe(keyframeAt(100, 1.1));
+  pipeline.observe(keyframeAt(101, 1.2));  // replaces 100
+  pipeline.push(keyframeAt(3, 1.5));
+  std::vector<PipelineOutput> outputs = pipeline.step();
+  ASSERT_FALSE(outputs.empty());
+  EXPECT_FALSE(outputs.front().result.frame_only) << "the keyframe first";
+  EXPECT_EQ(outputs.front().result.id, 3);
+  EXPECT_TRUE(std::any_of(outputs.begin(), outputs.end(), [](const PipelineOutput& o) { return o.result.frame_only; }))
+      << "then the frame: no keyframe waits";
+  size_t refined = 0;
+  for (const PipelineOutput& output : outputs)
+    if (output.result.frame_only) refined += output.result.refined_depths.size();
+  EXPECT_EQ(refined, 3u);  // keyframes 1, 2 and 3 (the default 3 newest filters)
+  const PipelineStats stats = pipeline.stats();
+  EXPECT_EQ(stats.frames_observed, 1u);
+  EXPECT_EQ(stats.frames_replaced, 1u);
+  EXPECT_GE(stats.refined_depths, refined);
+
+  Keyframe bad = keyframeAt(102, 1.6);
+  bad.image = ImageU8(4, 4, 1, 0);
+  pipeline.observe(bad);
+  pipeline.runUntilIdle([](const PipelineOutput&) {});
+  EXPECT_EQ(pipeline.stats().frames_refused, 1u);
+  EXPECT_TRUE(wall.logged("frame")) << "the refusal is logged";
+}
+
+}  // namespace
+}  // namespace amhmvs

@@ -958,3 +958,63 @@ TEST(OnlineMapper, ResetWhileAMapUpdateRunsEmptiesTheMap) {
 
 }  // namespace
 }  // namespace amhmvs
+
+namespace amhmvs {
+namespace {
+
+// Step 8 as a schedule (the wall's images are flat: no pixel converges, the
+// filter's own accuracy is test_depth_filter.cpp's): each keyframe's filter
+// starts with its first depth map, every later keyframe and frame refines the
+// newest `keyframes` filters, and a keyframe's depth comes out again every
+// publish_every frames and once more when it is final, as fused and published.
+TEST(OnlineMapper, TemporalDepthRepublishesEachKeyframeAtItsRateUntilFinal) {
+  OnlineMapperOptions options = wallOptions();
+  options.depth_filter.enabled = true;
+  options.depth_filter.keyframes = 2;
+  options.depth_filter.frames_per_keyframe = 3;
+  options.depth_filter.publish_every = 2;
+  options.confidence.min_probability = 0;  // published at fusion: every estimated pixel
+  OnlineMapper mapper(options, wallDepth);
+  const auto refined = [](const std::vector<RefinedDepth>& depths) {
+    std::vector<std::pair<int64_t, int>> out;
+    for (const RefinedDepth& depth : depths) out.push_back({depth.id, depth.frames * (depth.final ? -1 : 1)});
+    return out;
+  };
+  using Published = std::vector<std::pair<int64_t, int>>;  // (id, frames; negative: final)
+  EXPECT_TRUE(mapper.process(keyframeAt(0, 0.0)).refined_depths.empty());  // no depth map
+  EXPECT_TRUE(mapper.process(keyframeAt(1, 0.5)).refined_depths.empty());  // starts 1
+  EXPECT_TRUE(mapper.process(keyframeAt(2, 1.0)).refined_depths.empty());  // 1 has 1 frame; starts 2
+  // Keyframe 3: 1's second frame (published), 2's first; 3 starts and 1,
+  // the oldest of three, is final without a frame since its publication.
+  EXPECT_EQ(refined(mapper.process(keyframeAt(3, 1.5)).refined_depths), (Published{{1, 2}}));
+  // A frame between keyframes: 2's second (published), 3's first.
+  EXPECT_EQ(refined(mapper.observe(keyframeAt(100, 1.7))), (Published{{2, 2}}));
+  // Keyframe 4: 2's third frame makes it final; 3's second is published.
+  const KeyframeResult fifth = mapper.process(keyframeAt(4, 2.0));
+  EXPECT_EQ(refined(fifth.refined_depths), (Published{{2, -3}, {3, 2}}));
+  for (const RefinedDepth& depth : fifth.refined_depths) {
+    ASSERT_EQ(depth.published.depth.width, depth.camera.width);
+    ASSERT_EQ(depth.published.confidence.width, depth.camera.width);
+    size_t finite = 0;
+    for (float value : depth.published.depth.data) {
+      if (!std::isfinite(value)) continue;
+      ++finite;
+      EXPECT_NEAR(value, kWallZ, 1e-3);  // the depth as published at fusion
+    }
+    EXPECT_GT(finite, 0u) << depth.id;
+  }
+  // Bad frames are refused with the reason; a reset forgets every filter.
+  Keyframe bad = keyframeAt(101, 2.1);
+  bad.image = ImageU8(8, 8, 1, 0);
+  try {
+    mapper.observe(bad);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("does not fit its camera"), std::string::npos) << error.what();
+  }
+  mapper.reset();
+  EXPECT_TRUE(mapper.observe(keyframeAt(102, 2.2)).empty());
+}
+
+}  // namespace
+}  // namespace amhmvs
