@@ -8,6 +8,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mvs/cpu_sampler.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
+#include "amhmvs_mapping/mvs/view_geometry.h"
 #include "depth_filter_device.h"
 
 namespace amhmvs {
@@ -16,11 +17,6 @@ namespace {
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 bool hasBelief(const filter::DepthBelief& belief) { return belief.sigma2 > 0; }
-
-mvs::Intrinsics intrinsics(const PinholeCamera& camera) {
-  return {static_cast<float>(camera.fx), static_cast<float>(camera.fy), static_cast<float>(camera.cx),
-          static_cast<float>(camera.cy)};
-}
 
 std::string imageProblem(const PinholeCamera& camera, const ImageU8& gray) {
   if (gray.channels != 1) return "needs a grey image (1 channel), got " + std::to_string(gray.channels);
@@ -35,17 +31,11 @@ std::string imageProblem(const PinholeCamera& camera, const ImageU8& gray) {
 filter::FrameParams frameParams(const PinholeCamera& keyframe, const PinholeCamera& frame,
                                 const DepthFilterOptions& options, float depth_range) {
   filter::FrameParams p;
+  p.frame = mvs::sourceGeometry(keyframe, frame, /*layer=*/0);
   const RelativePose relative = relativePose(keyframe, frame);
-  const Eigen::Matrix3d A = frame.K() * relative.R * keyframe.K().inverse();
-  const Eigen::Vector3d b = frame.K() * relative.t;
-  for (int i = 0; i < 9; ++i) p.frame.A.m[i] = static_cast<float>(A(i / 3, i % 3));
-  p.frame.b = {static_cast<float>(b.x()), static_cast<float>(b.y()), static_cast<float>(b.z())};
-  p.frame.width = static_cast<float>(frame.width);
-  p.frame.height = static_cast<float>(frame.height);
-  p.frame.layer = 0;
   const Eigen::Vector3d centre = -relative.R.transpose() * relative.t;
   p.frame_centre = {static_cast<float>(centre.x()), static_cast<float>(centre.y()), static_cast<float>(centre.z())};
-  p.keyframe = intrinsics(keyframe);
+  p.keyframe = mvs::intrinsicsOf(keyframe);
   const PatchMatchOptions window;  // the estimator's window and weights (PaperWindow's shape)
   p.search.cost = {window.window_radius, window.window_step, window.sigma_color, window.sigma_spatial};
   p.search.samples = options.search_samples;

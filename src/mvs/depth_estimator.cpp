@@ -1,4 +1,5 @@
 #include "amhmvs_mapping/mvs/depth_estimator.h"
+#include "amhmvs_mapping/mvs/view_geometry.h"
 
 #include <cmath>
 #include <sstream>
@@ -153,8 +154,7 @@ PatchMatchParams makePatchMatchParams(const PatchMatchOptions& o, const DepthPro
   p.width = ref.width;
   p.height = ref.height;
   p.num_sources = static_cast<int>(problem.source_cameras.size());
-  p.K = {static_cast<float>(ref.fx), static_cast<float>(ref.fy), static_cast<float>(ref.cx),
-         static_cast<float>(ref.cy)};
+  p.K = intrinsicsOf(ref);
   p.depth_min = static_cast<float>(problem.depth_min);
   p.depth_max = static_cast<float>(problem.depth_max);
   p.min_normal_cos = std::cos(o.max_normal_angle_deg * static_cast<float>(M_PI) / 180.0f);
@@ -167,18 +167,10 @@ PatchMatchParams makePatchMatchParams(const PatchMatchOptions& o, const DepthPro
   p.selection = {o.tau_mc_init, o.tau_alpha, o.tau_up, o.beta, o.n1, o.n2, o.top_k,
                  o.best_view_boost, o.previous_selection_weight, o.heuristic_k};
   p.pattern = makePropagationPattern(o.propagation);
-  const Eigen::Matrix3d k_ref_inv = ref.K().inverse();
   for (int j = 0; j < p.num_sources; ++j) {
-    const PinholeCamera& src = problem.source_cameras[j];
-    const RelativePose rel = relativePose(ref, src);
-    const Eigen::Matrix3d A = src.K() * rel.R * k_ref_inv;
-    const Eigen::Vector3d b = src.K() * rel.t;
-    SourceGeometry& g = p.sources[j];
-    for (int i = 0; i < 9; ++i) g.A.m[i] = static_cast<float>(A(i / 3, i % 3));
-    g.b = {static_cast<float>(b.x()), static_cast<float>(b.y()), static_cast<float>(b.z())};
-    g.width = static_cast<float>(src.width);
-    g.height = static_cast<float>(src.height);
-    g.layer = j;  // the CPU sampler's index; the CUDA backend puts its pool slot here
+    Eigen::Matrix3d A;
+    // layer: the CPU sampler's index; the CUDA backend puts its pool slot here.
+    p.sources[j] = sourceGeometry(ref, problem.source_cameras[j], j, &A);
     const Eigen::Matrix3d A_inv = A.inverse();
     for (int i = 0; i < 9; ++i) p.back[j].A_inv.m[i] = static_cast<float>(A_inv(i / 3, i % 3));
     p.back[j].depth_offset = -1;  // set by the backend with the depth buffer
