@@ -3,15 +3,17 @@ import cv2
 import numpy as np
 
 
-def read_ply(path):
+def read_ply(path, with_faces=False):
     """(xyz float64 N x 3, rgb uint8 N x 3) of a binary little-endian PLY whose
-    vertices hold float x y z and uchar red green blue among other properties."""
+    vertices hold float x y z and uchar red green blue among other properties;
+    with_faces: also its triangles (int M x 3; none when it has no "face"
+    element of uchar-counted int indices, as amhmvs writes meshes)."""
     types = {"float": "<f4", "float32": "<f4", "double": "<f8", "uchar": "u1", "uint8": "u1",
              "int": "<i4", "uint": "<u4", "short": "<i2", "ushort": "<u2", "char": "i1"}
     with open(path, "rb") as f:
         if f.readline().strip() != b"ply":
             raise ValueError(f"{path}: not a PLY file")
-        fields, count, in_vertex = [], 0, False
+        fields, count, faces, element = [], 0, 0, None
         while True:
             words = f.readline().decode("ascii").split()
             if not words:
@@ -21,14 +23,22 @@ def read_ply(path):
             if words[0] == "format" and words[1] != "binary_little_endian":
                 raise ValueError(f"{path}: only binary_little_endian PLY is read, not {words[1]}")
             if words[0] == "element":
-                in_vertex = words[1] == "vertex"
-                count = int(words[2]) if in_vertex else count
-            elif words[0] == "property" and in_vertex:
+                element = words[1]
+                count = int(words[2]) if element == "vertex" else count
+                faces = int(words[2]) if element == "face" else faces
+            elif words[0] == "property" and element == "vertex":
                 fields.append((words[2], types[words[1]]))
+            elif words[0] == "property" and element == "face" and words[1:4] != ["list", "uchar", "int"]:
+                raise ValueError(f"{path}: faces must be 'list uchar int', not {' '.join(words[1:4])}")
         vertex = np.fromfile(f, dtype=np.dtype(fields), count=count)
+        triangles = np.fromfile(f, dtype=np.dtype([("n", "u1"), ("i", "<i4", (3,))]), count=faces)
     xyz = np.stack([vertex[n] for n in "xyz"], axis=1).astype(np.float64)
     rgb = np.stack([vertex[n] for n in ("red", "green", "blue")], axis=1).astype(np.uint8)
-    return xyz, rgb
+    if not with_faces:
+        return xyz, rgb
+    if np.any(triangles["n"] != 3):
+        raise ValueError(f"{path}: only triangles are read")
+    return xyz, rgb, triangles["i"].astype(np.int64)
 
 
 # The colour map of every depth picture of the project (src/io/depth_preview.cpp):

@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """Publishes a PLY cloud (as written by the demo) once, latched, as a
-PointCloud2 with x y z rgb in ~frame_id (default world) on `cloud`, and a
+PointCloud2 with x y z rgb in ~frame_id (default world) on `cloud` (and, for
+a mesh, its triangles as a visualization_msgs/Marker TRIANGLE_LIST on
+`mesh`), and a
 static tf frame ~frame_id + "_view" at the cloud's median point whose z axis
 is ~up (default 0,0,1; 0,-1,0 for a world that is a camera frame, as
 7-Scenes' and KinectFusion's): a fixed frame for rviz in which any map is in
 view and upright. Then spins until shut down (for rviz pictures of a saved
 map).
 
-usage: publish_ply.py MAP.ply [_frame_id:=world] [_up:=X,Y,Z] [cloud:=/topic]
+usage: publish_ply.py MAP.ply [_frame_id:=world] [_up:=X,Y,Z] [cloud:=/topic] [mesh:=/topic]
 """
 import os
 import sys
@@ -15,8 +17,10 @@ import sys
 import numpy as np
 import rospy
 import tf2_ros
-from geometry_msgs.msg import TransformStamped
+from geometry_msgs.msg import Point, TransformStamped
 from sensor_msgs.msg import PointCloud2, PointField
+from std_msgs.msg import ColorRGBA
+from visualization_msgs.msg import Marker
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from demo_outputs import read_ply  # noqa: E402
@@ -33,6 +37,19 @@ def cloud_msg(xyz, rgb, frame_id):
                       row_step=16 * len(points), is_dense=True, data=points.tobytes())
     msg.header.frame_id = frame_id
     msg.header.stamp = rospy.Time.now()
+    return msg
+
+
+def mesh_msg(xyz, rgb, triangles, frame_id):
+    msg = Marker(type=Marker.TRIANGLE_LIST, action=Marker.ADD, ns="surface", id=0)
+    msg.header.frame_id = frame_id
+    msg.header.stamp = rospy.Time.now()
+    msg.pose.orientation.w = 1
+    msg.scale.x = msg.scale.y = msg.scale.z = 1
+    msg.color.a = 1
+    corners = triangles.reshape(-1)
+    msg.points = [Point(*map(float, xyz[i])) for i in corners]
+    msg.colors = [ColorRGBA(*(rgb[i] / 255.0), 1.0) for i in corners]
     return msg
 
 
@@ -55,10 +72,13 @@ def main():
     if len(argv) != 2:
         sys.exit(__doc__)
     rospy.init_node("publish_ply", anonymous=True)
-    xyz, rgb = read_ply(argv[1])
+    xyz, rgb, triangles = read_ply(argv[1], with_faces=True)
     publisher = rospy.Publisher("cloud", PointCloud2, queue_size=1, latch=True)
     msg_frame = rospy.get_param("~frame_id", "world")
     publisher.publish(cloud_msg(xyz, rgb, msg_frame))
+    if len(triangles):
+        mesh_publisher = rospy.Publisher("mesh", Marker, queue_size=1, latch=True)
+        mesh_publisher.publish(mesh_msg(xyz, rgb, triangles, msg_frame))
     up = np.array([float(v) for v in str(rospy.get_param("~up", "0,0,1")).split(",")])
     if up.shape != (3,) or not np.all(np.isfinite(up)) or np.linalg.norm(up) == 0:
         sys.exit("publish_ply: ~up must be three numbers, not all zero (got %s)" % rospy.get_param("~up"))

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Renders a saved map (PLY) as rviz shows it, headless, into a PNG: starts Xvfb
 # on a free display, a ROS master on a free port, publishes the PLY as a
-# latched PointCloud2 (scripts/publish_ply.py) and starts rviz with
+# latched PointCloud2 (scripts/publish_ply.py; a mesh PLY's triangles also as a
+# Marker, which rviz/demo_mesh.rviz shows) and starts rviz with
 # rviz/demo_map.rviz (or RVIZ_CONFIG); once rviz subscribes, takes screenshots
 # until two in a row agree and show more than the background, then stops
 # everything it started. With --up X,Y,Z the view follows the map instead of
@@ -69,11 +70,17 @@ if [ -n "$up" ]; then
   python3 "$here/scripts/map_view_rviz_config.py" "$config" "$work/follow.rviz" "$map"
   config=$work/follow.rviz
 fi
-python3 "$here/scripts/publish_ply.py" "$map" cloud:=/amhmvs_demo/map _up:="${up:-0,0,1}" >"$work/publish.log" 2>&1 &
+python3 "$here/scripts/publish_ply.py" "$map" cloud:=/amhmvs_demo/map mesh:=/amhmvs_demo/mesh _up:="${up:-0,0,1}" \
+  >"$work/publish.log" 2>&1 &
 pids+=($!)
 rviz -d "$config" >"$work/rviz.log" 2>&1 &
 pids+=($!)
-subscribed() { rostopic info /amhmvs_demo/map 2>/dev/null | sed -n '/Subscribers:/,$p' | grep -q rviz; }
+subscribed() {
+  for topic in /amhmvs_demo/map /amhmvs_demo/mesh; do
+    rostopic info "$topic" 2>/dev/null | sed -n '/Subscribers:/,$p' | grep -q rviz && return 0
+  done
+  return 1
+}
 wait_for 60 "rviz to subscribe to the map" subscribed
 
 # Drawn: two screenshots 1 s apart agree (but for the frame-rate counter,

@@ -64,29 +64,67 @@ std::string lowerExtension(const std::string& path) {
 
 }  // namespace
 
-void writePly(const std::string& path, const PointCloud& cloud) {
-  checkCloud(path, cloud);
+namespace {
+
+// The vertex element of a PLY file: its header lines and its data.
+void plyVertexElement(const PointCloud& cloud, std::ostringstream* header, std::string* data) {
   const bool normals = !cloud.normals.empty(), colors = !cloud.colors.empty(),
              quality = !cloud.confidence.empty();
-  std::ostringstream header;
-  header << "ply\nformat binary_little_endian 1.0\ncomment amhmvs_mapping fused point cloud\n"
-         << "element vertex " << cloud.size() << "\n"
-         << "property float x\nproperty float y\nproperty float z\n";
-  if (normals) header << "property float nx\nproperty float ny\nproperty float nz\n";
-  if (colors) header << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-  if (quality) header << "property float quality\n";
-  header << "end_header\n";
-  std::string bytes = header.str();
-  bytes.reserve(bytes.size() + cloud.size() * (12 + 12 * normals + 3 * colors + 4 * quality));
+  *header << "element vertex " << cloud.size() << "\n"
+          << "property float x\nproperty float y\nproperty float z\n";
+  if (normals) *header << "property float nx\nproperty float ny\nproperty float nz\n";
+  if (colors) *header << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  if (quality) *header << "property float quality\n";
+  data->reserve(data->size() + cloud.size() * (12 + 12 * normals + 3 * colors + 4 * quality));
   for (size_t i = 0; i < cloud.size(); ++i) {
-    for (int k = 0; k < 3; ++k) appendFloat(&bytes, cloud.points[i][k]);
+    for (int k = 0; k < 3; ++k) appendFloat(data, cloud.points[i][k]);
     if (normals) {
-      for (int k = 0; k < 3; ++k) appendFloat(&bytes, cloud.normals[i][k]);
+      for (int k = 0; k < 3; ++k) appendFloat(data, cloud.normals[i][k]);
     }
-    if (colors) bytes.append(reinterpret_cast<const char*>(cloud.colors[i].data()), 3);
-    if (quality) appendFloat(&bytes, cloud.confidence[i]);
+    if (colors) data->append(reinterpret_cast<const char*>(cloud.colors[i].data()), 3);
+    if (quality) appendFloat(data, cloud.confidence[i]);
   }
-  writeFileAtomically(path, bytes, "PLY point cloud");
+}
+
+}  // namespace
+
+void writePly(const std::string& path, const PointCloud& cloud) {
+  checkCloud(path, cloud);
+  std::ostringstream header;
+  header << "ply\nformat binary_little_endian 1.0\ncomment amhmvs_mapping fused point cloud\n";
+  std::string data;
+  plyVertexElement(cloud, &header, &data);
+  header << "end_header\n";
+  writeFileAtomically(path, header.str() + data, "PLY point cloud");
+}
+
+std::string TriangleMesh::validate() const {
+  const std::string problem = vertices.validate();
+  if (!problem.empty()) return problem;
+  for (size_t t = 0; t < triangles.size(); ++t) {
+    for (uint32_t index : triangles[t]) {
+      if (index >= vertices.size())
+        return "triangle " + std::to_string(t) + " refers to vertex " + std::to_string(index) + " of " +
+               std::to_string(vertices.size());
+    }
+  }
+  return "";
+}
+
+void writeMeshPly(const std::string& path, const TriangleMesh& mesh) {
+  const std::string problem = mesh.validate();
+  if (!problem.empty()) throw InputError(path + ": mesh not written: " + problem);
+  std::ostringstream header;
+  header << "ply\nformat binary_little_endian 1.0\ncomment amhmvs_mapping surface mesh\n";
+  std::string data;
+  plyVertexElement(mesh.vertices, &header, &data);
+  header << "element face " << mesh.triangles.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
+  data.reserve(data.size() + mesh.triangles.size() * 13);
+  for (const std::array<uint32_t, 3>& triangle : mesh.triangles) {
+    data.push_back(3);
+    for (uint32_t index : triangle) appendLe32(&data, &index);
+  }
+  writeFileAtomically(path, header.str() + data, "PLY mesh");
 }
 
 void writePcd(const std::string& path, const PointCloud& cloud) {

@@ -8,6 +8,10 @@
 
 namespace amhmvs {
 
+MapUpdater::MapUpdater(const VoxelMapOptions& options, const TsdfMapOptions& surface) : map_(options) {
+  if (surface.enabled) surface_.reset(new TsdfMap(surface));
+}
+
 MapUpdater::~MapUpdater() {
   try {
     finish();
@@ -16,13 +20,22 @@ MapUpdater::~MapUpdater() {
   }
 }
 
-void MapUpdater::add(int64_t id, const Eigen::Isometry3d& pose, Shared<KeyframePoints> points, bool in_background) {
+void MapUpdater::add(int64_t id, const Eigen::Isometry3d& pose, Shared<KeyframePoints> points,
+                     Shared<SurfaceDepth> surface, bool in_background) {
   finish();  // one update at a time, in order
-  std::function<MapUpdateRecord()> update = [this, id, pose, points = std::move(points)]() {
+  std::function<MapUpdateRecord()> update = [this, id, pose, points = std::move(points),
+                                             surface = std::move(surface)]() {
     const auto start = std::chrono::steady_clock::now();
     MapUpdateRecord record;
     record.id = id;
     record.update = map_.addKeyframe(id, pose, points);
+    if (surface_ && !surface->depth.empty()) {
+      record.surface = surface_->addKeyframe(id, pose, *surface);
+      surface_->updateMesh();
+    } else if (surface_ && surface_->contains(id)) {
+      surface_->removeKeyframe(id);  // fused again without a published depth
+      surface_->updateMesh();
+    }
     record.milliseconds = millisecondsSince(start);
     return record;
   };
@@ -38,7 +51,15 @@ void MapUpdater::add(int64_t id, const Eigen::Isometry3d& pose, Shared<KeyframeP
 
 bool MapUpdater::remove(int64_t id) {
   finish();
-  if (!map_.contains(id)) return false;
+  const bool in_surface = surface_ && surface_->contains(id);
+  if (in_surface) {
+    surface_->removeKeyframe(id);
+    surface_->updateMesh();
+  }
+  if (!map_.contains(id)) {
+    if (in_surface) noteChanged();
+    return in_surface;
+  }
   map_.removeKeyframe(id);
   noteChanged();
   return true;
@@ -46,7 +67,15 @@ bool MapUpdater::remove(int64_t id) {
 
 bool MapUpdater::updatePose(int64_t id, const Eigen::Isometry3d& pose) {
   finish();
-  if (!map_.contains(id)) return false;
+  const bool in_surface = surface_ && surface_->contains(id);
+  if (in_surface) {
+    surface_->updatePose(id, pose);
+    surface_->updateMesh();
+  }
+  if (!map_.contains(id)) {
+    if (in_surface) noteChanged();
+    return in_surface;
+  }
   map_.updatePose(id, pose);
   noteChanged();
   return true;
@@ -64,7 +93,7 @@ void MapUpdater::replace(VoxelMap map) {
   noteChanged();
 }
 
-void MapUpdater::reset(const VoxelMapOptions& options) {
+void MapUpdater::reset(const VoxelMapOptions& options, const TsdfMapOptions& surface) {
   try {
     finish();
   } catch (const std::exception&) {
@@ -72,6 +101,7 @@ void MapUpdater::reset(const VoxelMapOptions& options) {
   }
   finished_.clear();
   map_ = VoxelMap(options);
+  surface_.reset(surface.enabled ? new TsdfMap(surface) : nullptr);
   noteChanged();
 }
 
@@ -90,6 +120,11 @@ void MapUpdater::finish() const {
 const VoxelMap& MapUpdater::map() const {
   finish();
   return map_;
+}
+
+const TsdfMap* MapUpdater::surface() const {
+  finish();
+  return surface_.get();
 }
 
 std::vector<MapUpdateRecord> MapUpdater::takeUpdates() {

@@ -238,6 +238,25 @@ const Table<VoxelMapOptions>& mapTable() {
   return table;
 }
 
+const Table<TsdfMapOptions>& surfaceTable() {
+  using O = TsdfMapOptions;
+  static const Table<TsdfMapOptions> table = {
+      switchField<O>("enabled", &O::enabled,
+                     "integrate the published depth into a TSDF surface map and publish its mesh (needs confidence/enabled)"),
+      numberField("voxel_size", &O::voxel_size, "surface map voxel edge, metres"),
+      advanced(numberField("band_voxels", &O::band_voxels, "truncation band, voxels (> 1)")),
+      advanced(numberField("max_image_width", &O::max_image_width,
+                           "wider depth images are subsampled to at most this width before integration")),
+      advanced(numberField("min_weight", &O::min_weight,
+                           "voxels with less weight (sum of confidences) are unobserved: no surface through them")),
+      advanced(numberField("max_blocks", &O::max_blocks,
+                           "8^3-voxel blocks kept (16 KiB each); beyond, the oldest keyframes are removed")),
+      advanced(numberField("max_keyframes", &O::max_keyframes,
+                           "keyframes' depth kept for re-posing; beyond, the oldest keyframes are removed")),
+  };
+  return table;
+}
+
 const Table<RefinementOptions>& refinementTable() {
   using O = RefinementOptions;
   static const Table<RefinementOptions> table = {
@@ -385,6 +404,7 @@ DepthRangeOptions& depthRangeOf(MappingParameters& p) { return p.pipeline.mapper
 FusionOptions& fusionOf(MappingParameters& p) { return p.pipeline.mapper.fusion; }
 VoxelMapOptions& mapOf(MappingParameters& p) { return p.pipeline.mapper.map; }
 RefinementOptions& refinementOf(MappingParameters& p) { return p.pipeline.mapper.refinement; }
+TsdfMapOptions& surfaceOf(MappingParameters& p) { return p.pipeline.mapper.surface; }
 ConfidenceOptions& confidenceOf(MappingParameters& p) { return p.pipeline.mapper.confidence; }
 PoseRefinementOptions& poseRefinementOf(MappingParameters& p) { return p.pipeline.mapper.pose_refinement; }
 NeighbourDepthOptions& neighbourDepthOf(MappingParameters& p) { return p.pipeline.mapper.neighbour_depth; }
@@ -409,6 +429,7 @@ Table<MappingParameters> buildTable() {
   append(&table, "depth_range", depthRangeOf, depthRangeTable());
   append(&table, "fusion", fusionOf, fusionTable());
   append(&table, "map", mapOf, mapTable());
+  append(&table, "surface", surfaceOf, surfaceTable());
   append(&table, "refinement", refinementOf, refinementTable());
   append(&table, "confidence", confidenceOf, confidenceTable());
   append(&table, "pose_refinement", poseRefinementOf, poseRefinementTable());
@@ -532,6 +553,8 @@ const std::vector<ParameterGroup>& mappingParameterGroups() {
       {"fusion", "Fusion against other keyframes' depth maps (mapping/fusion.h); a keyframe is fused once "
                  "min_consistent_views others pass the sources' geometric checks against it"},
       {"map", "Global voxel map (mapping/voxel_map.h), published on `map`"},
+      {"surface", "Surface map (mapping/tsdf_map.h): a TSDF of the published depth, weighted by its confidence, and "
+                  "its mesh, published on `mesh` and `surface`"},
       {"refinement", "Re-estimation of a keyframe when later keyframes give it better sources (idle work)"},
       {"confidence", "Calibrated confidence and the published depth (mapping/depth_confidence.h)"},
       {"pose_refinement", "Pose refinement before stereo (mapping/pose_refinement.h): SIFT features and a bundle "

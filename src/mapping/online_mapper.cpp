@@ -72,6 +72,7 @@ std::string OnlineMapperOptions::validate() const {
   appendProblems("neighbour_depth", neighbour_depth.validate(), &out);
   appendProblems("rolling_shutter", rolling_shutter.validate(), &out);
   appendProblems("depth_filter", depth_filter.validate(), &out);
+  appendProblems("surface", surface.validate(), &out);
   if (fusion.min_consistent_views > kMaxSourceViews)
     out << "fusion: min_consistent_views must be at most " << kMaxSourceViews << " (the most consistency views)\n";
   return out.str();
@@ -82,7 +83,7 @@ OnlineMapper::OnlineMapper(const OnlineMapperOptions& options, EstimateFunction 
     : options_(options),
       estimate_(std::move(estimate)),
       store_(options.store),
-      map_(options.map),
+      map_(options.map, keptSurface(options)),
       consistency_(store_, poses_, std::move(fuse), std::move(publish)) {
   const std::string problems = options.validate();
   if (!problems.empty()) throw InputError("online mapper options:\n" + problems);
@@ -485,7 +486,8 @@ void OnlineMapper::fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResul
     noteEvicted(store_.attachPoints(id, fused.points), result);
     result->times.store_ms += millisecondsSince(start);
     start = Clock::now();
-    map_.add(id, poses_.mapPose(id, store_), fused.points, options_.map_in_background);  // replaces
+    map_.add(id, poses_.mapPose(id, store_), fused.points, surfaceDepth(id, fused.published),
+             options_.map_in_background);  // replaces
   } else {
     start = Clock::now();
     map_.remove(id);  // the refined depth map confirms nothing of the old points
@@ -493,6 +495,26 @@ void OnlineMapper::fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResul
   result->times.map_ms += millisecondsSince(start);
   if (id == result->id) result->fused_now = true;
   result->fused.push_back(std::move(fused));
+}
+
+TsdfMapOptions keptSurface(const OnlineMapperOptions& options) {
+  TsdfMapOptions kept = options.surface;
+  kept.enabled = options.surface.enabled && options.confidence.enabled;
+  return kept;
+}
+
+Shared<SurfaceDepth> OnlineMapper::surfaceDepth(int64_t id, const PublishedDepth& published) const {
+  if (!options_.surface.enabled || published.empty()) return Shared<SurfaceDepth>();
+  SurfaceDepth full;
+  full.camera = store_.keyframe(id).camera;
+  full.depth = published.depth;
+  full.weight = published.confidence;
+  for (float& weight : full.weight.data) {
+    if (!(weight >= 0) || !std::isfinite(weight)) weight = 0;  // no confidence: no weight
+  }
+  full.colour = store_.keyframe(id).image;
+  // Subsampled here, so that the background update copies a quarter of it.
+  return Shared<SurfaceDepth>(subsampledSurfaceDepth(full, options_.surface.max_image_width));
 }
 
 OnlineMapper::~OnlineMapper() = default;  // map_ waits for its update in flight
@@ -545,7 +567,7 @@ void OnlineMapper::reset() {
   deferred_ = DeferredFusion();
   if (pose_refiner_) pose_refiner_->forgetAll();
   poses_.clear();
-  map_.reset(options_.map);
+  map_.reset(options_.map, keptSurface(options_));
 }
 
 void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
@@ -553,6 +575,7 @@ void OnlineMapper::setOptions(const OnlineMapperOptions& options) {
   if (!problems.empty()) throw InputError("online mapper options:\n" + problems);
   OnlineMapperOptions kept = options;
   kept.store = options_.store;
+  kept.surface = options_.surface;  // its bounds and voxels stay
   const VoxelMap& map = map_.map();  // after the update in flight
   if (options.map.leaf_size != options_.map.leaf_size) {
     // A new voxel size: rebuild the map from the stored keyframes' points.

@@ -150,6 +150,14 @@ std::string MappingNodelet::saveMap(const std::string& requested) {
   pipeline_->withMapper([&](const amhmvs::OnlineMapper& mapper) {
     amhmvs::writeMap(path.string(), mapper.map());
     message = "saved " + std::to_string(mapper.map().voxelCount()) + " points to " + path.string();
+    if (!mapper.surface()) return;
+    // The surface beside it: NAME_mesh.ply.
+    boost::filesystem::path mesh_path = path;
+    mesh_path.replace_extension();
+    mesh_path += "_mesh.ply";
+    const amhmvs::TriangleMesh mesh = mapper.surface()->mesh();
+    amhmvs::writeMeshPly(mesh_path.string(), mesh);
+    message += ", the surface mesh (" + std::to_string(mesh.triangles.size()) + " triangles) to " + mesh_path.string();
   });
   return message;
 }

@@ -36,6 +36,20 @@ void KeyframeHeaders::clear() {
   headers_.clear();
 }
 
+namespace {
+
+// Latched: a late subscriber (rviz) gets the last map at once, and its
+// connection asks the worker for a current one (no export without subscribers).
+template <typename Message>
+ros::Publisher advertiseLatched(ros::NodeHandle& nh, const std::string& topic,
+                                const std::function<void()>& on_subscriber) {
+  return nh.advertise<Message>(
+      topic, 1, [on_subscriber](const ros::SingleSubscriberPublisher&) { on_subscriber(); },
+      ros::SubscriberStatusCallback(), ros::VoidConstPtr(), true);
+}
+
+}  // namespace
+
 MappingOutputs::MappingOutputs(ros::NodeHandle& nh, const MappingConfig& config,
                                std::function<void()> on_map_subscriber)
     : config_(config) {
@@ -45,11 +59,11 @@ MappingOutputs::MappingOutputs(ros::NodeHandle& nh, const MappingConfig& config,
   confidence_pub_ = it_->advertise("confidence/image", 5);
   preview_pub_ = it_->advertise("depth/preview", 5);
   cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("keyframe_cloud", 5);
-  // Latched: a late subscriber (rviz) gets the last map at once, and its
-  // connection asks the worker for a current one (no export without subscribers).
-  map_pub_ = nh.advertise<sensor_msgs::PointCloud2>(
-      "map", 1, [on_map_subscriber](const ros::SingleSubscriberPublisher&) { on_map_subscriber(); },
-      ros::SubscriberStatusCallback(), ros::VoidConstPtr(), true);
+  map_pub_ = advertiseLatched<sensor_msgs::PointCloud2>(nh, "map", on_map_subscriber);
+  if (amhmvs::keptSurface(config_.pipeline.mapper).enabled) {
+    mesh_pub_ = advertiseLatched<visualization_msgs::Marker>(nh, "mesh", on_map_subscriber);
+    surface_pub_ = advertiseLatched<sensor_msgs::PointCloud2>(nh, "surface", on_map_subscriber);
+  }
   markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("keyframe_markers", 5);
   if (!config_.node.view_frame.empty()) view_broadcaster_.reset(new tf2_ros::StaticTransformBroadcaster());
 }
@@ -140,23 +154,33 @@ void MappingOutputs::publishDepth(const amhmvs::ImageF& depth, const amhmvs::Pin
 }
 
 void MappingOutputs::publishMap(const amhmvs::MappingPipeline& pipeline, bool requested) {
-  if (map_pub_.getNumSubscribers() == 0) return;  // a new subscriber's connection asks for one
+  const auto subscribed = [](const ros::Publisher& publisher) { return publisher && publisher.getNumSubscribers() > 0; };
+  const bool map_wanted = subscribed(map_pub_), mesh_wanted = subscribed(mesh_pub_),
+             surface_wanted = subscribed(surface_pub_);
+  if (!map_wanted && !mesh_wanted && !surface_wanted) return;  // a new subscriber's connection asks for one
   const ros::WallTime now = ros::WallTime::now();
   const bool due = (now - last_map_publish_).toSec() >= config_.node.map_publish_period;
-  sensor_msgs::PointCloud2Ptr msg;
+  sensor_msgs::PointCloud2Ptr map_msg, surface_msg;
+  visualization_msgs::MarkerPtr mesh_msg;
+  bool exported = false;
   pipeline.withMapper([&](const amhmvs::OnlineMapper& mapper) {
     const bool changed = !published_map_ || mapper.mapRevision() != published_map_revision_;
-    if (!requested && !(changed && due)) return;  // unchanged: the latched message stands
+    if (!requested && !(changed && due)) return;  // unchanged: the latched messages stand
     std_msgs::Header header;
     header.stamp = ros::Time::now();
     header.frame_id = config_.node.fixed_frame;
-    msg = cloudMsg(mapper.map().exportCloud(), header);
+    if (map_wanted) map_msg = cloudMsg(mapper.map().exportCloud(), header);
+    if (mapper.surface() && mesh_wanted) mesh_msg = meshMarkerMsg(mapper.surface()->mesh(), header);
+    if (mapper.surface() && surface_wanted) surface_msg = cloudMsg(mapper.surface()->surfaceCloud(), header);
     published_map_revision_ = mapper.mapRevision();
+    exported = true;
   });
-  if (!msg) return;
+  if (!exported) return;
   published_map_ = true;
   last_map_publish_ = now;
-  map_pub_.publish(msg);
+  if (map_msg) map_pub_.publish(map_msg);
+  if (mesh_msg) mesh_pub_.publish(mesh_msg);
+  if (surface_msg) surface_pub_.publish(surface_msg);
   ++map_publications_;
 }
 

@@ -225,6 +225,43 @@ amhmvs::PointCloud keyframeCloud(const amhmvs::KeyframePoints& points) {
   return cloud;
 }
 
+visualization_msgs::MarkerPtr meshMarkerMsg(const amhmvs::TriangleMesh& mesh, const std_msgs::Header& header) {
+  auto msg = boost::make_shared<visualization_msgs::Marker>();
+  msg->header = header;
+  msg->ns = "surface";
+  msg->id = 0;
+  msg->type = visualization_msgs::Marker::TRIANGLE_LIST;
+  msg->action = visualization_msgs::Marker::ADD;
+  msg->pose.orientation.w = 1;
+  msg->scale.x = msg->scale.y = msg->scale.z = 1;
+  msg->color.r = msg->color.g = msg->color.b = 0.8f;
+  msg->color.a = 1;
+  const amhmvs::PointCloud& vertices = mesh.vertices;
+  const bool coloured = vertices.colors.size() == vertices.size();
+  msg->points.reserve(3 * mesh.triangles.size());
+  if (coloured) msg->colors.reserve(3 * mesh.triangles.size());
+  for (const std::array<uint32_t, 3>& triangle : mesh.triangles) {
+    bool finite = true;
+    for (uint32_t index : triangle) finite = finite && index < vertices.size() && vertices.points[index].allFinite();
+    if (!finite) continue;
+    for (uint32_t index : triangle) {
+      geometry_msgs::Point point;
+      point.x = vertices.points[index].x();
+      point.y = vertices.points[index].y();
+      point.z = vertices.points[index].z();
+      msg->points.push_back(point);
+      if (!coloured) continue;
+      std_msgs::ColorRGBA colour;
+      colour.r = vertices.colors[index][0] / 255.0f;
+      colour.g = vertices.colors[index][1] / 255.0f;
+      colour.b = vertices.colors[index][2] / 255.0f;
+      colour.a = 1;
+      msg->colors.push_back(colour);
+    }
+  }
+  return msg;
+}
+
 sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::PointCloud& cloud, const std_msgs::Header& header) {
   const bool has_normals = cloud.normals.size() == cloud.size(), has_colors = cloud.colors.size() == cloud.size();
   auto finite = [&](size_t i) { return cloud.points[i].allFinite() && (!has_normals || cloud.normals[i].allFinite()); };

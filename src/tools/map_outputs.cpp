@@ -461,10 +461,18 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   std::vector<double> pixels_in_map_pct;
   // Where true poses are known: the map's keyframe poses and those.
   std::vector<Eigen::Isometry3d> map_poses, true_poses;
+  TriangleMesh mesh;  // the surface map's, when it is on
+  size_t surface_blocks = 0, surface_bytes = 0;
   pipeline.withMapper([&](const OnlineMapper& mapper) {
     // Exported once: written as map.ply and judged below.
     const PointCloud cloud = mapper.map().exportCloud();
     writePointCloud(dir_ + "/map.ply", cloud);
+    if (mapper.surface()) {
+      mesh = mapper.surface()->mesh();
+      surface_blocks = mapper.surface()->blockCount();
+      surface_bytes = mapper.surface()->memoryBytes();
+      writeMeshPly(dir_ + "/mesh.ply", mesh);
+    }
     writeKeyframePoses(mapper.map());
     map_points = cloud.points;
     for (const auto& [id, pixels] : keyframe_pixels_) {
@@ -588,6 +596,35 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
     };
     map_within_pct = withinPct(map_points);
     addWithinFields(map_within_pct, &map);
+    // Share of the true surface with a point of `points` within each threshold.
+    const auto coveredPct = [&truth](const std::vector<Eigen::Vector3f>& points) {
+      std::vector<size_t> covered(kMapThresholds.size(), 0);
+      if (!points.empty()) {
+        const VoxelGridIndex nearest(points, kMapThresholds.back());
+        for (const Eigen::Vector3f& point : truth) {
+          const double distance = nearest.nearestDistance(point, kMapThresholds.back());
+          for (size_t i = 0; i < kMapThresholds.size(); ++i) covered[i] += distance <= kMapThresholds[i];
+        }
+      }
+      std::vector<double> pct;
+      for (size_t count : covered) pct.push_back(100.0 * count / truth.size());
+      return pct;
+    };
+    JsonFields covered;
+    addWithinFields(coveredPct(map_points), &covered);
+    map.add("truth_covered", covered.object());
+    if (keptSurface(pipeline.options().mapper).enabled) {
+      JsonFields surface, surface_covered;
+      surface.add("vertices", std::to_string(mesh.vertices.size()));
+      surface.add("triangles", std::to_string(mesh.triangles.size()));
+      surface.add("voxel_size", number(pipeline.options().mapper.surface.voxel_size));
+      surface.add("blocks", std::to_string(surface_blocks));
+      surface.add("memory_mib", number(surface_bytes / 1048576.0));
+      addWithinFields(withinPct(mesh.vertices.points), &surface);
+      addWithinFields(coveredPct(mesh.vertices.points), &surface_covered);
+      surface.add("truth_covered", surface_covered.object());
+      summary.add("surface", surface.object());
+    }
     map.add("truth_points", std::to_string(truth.size()));
     map.add("truth_at", quoted(tracker_placed_truth_.empty() ? "recorded poses" : "true poses"));
     if (!tracker_placed_truth_.empty()) {
@@ -639,6 +676,14 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
     }
   }
   summary.add("map", map.object());
+  if (keptSurface(pipeline.options().mapper).enabled && truth_points_.empty()) {
+    JsonFields surface;
+    surface.add("vertices", std::to_string(mesh.vertices.size()));
+    surface.add("triangles", std::to_string(mesh.triangles.size()));
+    surface.add("blocks", std::to_string(surface_blocks));
+    surface.add("memory_mib", number(surface_bytes / 1048576.0));
+    summary.add("surface", surface.object());
+  }
 
   char text[512];
   std::snprintf(text, sizeof(text),

@@ -234,3 +234,28 @@ TEST(RosConversions, DepthOutputsAndCloud) {
   EXPECT_FLOAT_EQ(x[0], 1.5f);
   EXPECT_EQ(rgb[2], 255);  // packed 0x00RRGGBB, little endian: byte 2 is red
 }
+
+TEST(RosConversions, MeshMarkerHasThreeColouredPointsPerTriangleAndNoNaN) {
+  amhmvs::TriangleMesh mesh;
+  mesh.vertices.points = {{0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {NAN, 0, 1}};
+  mesh.vertices.colors = {{{255, 0, 0}}, {{0, 255, 0}}, {{0, 0, 255}}, {{9, 9, 9}}};
+  mesh.triangles = {{{0, 1, 2}}, {{0, 2, 3}}};  // the second has a NaN vertex
+  std_msgs::Header header;
+  header.frame_id = "map";
+  const visualization_msgs::MarkerPtr msg = meshMarkerMsg(mesh, header);
+  EXPECT_EQ(msg->header.frame_id, "map");
+  EXPECT_EQ(msg->type, visualization_msgs::Marker::TRIANGLE_LIST);
+  ASSERT_EQ(msg->points.size(), 3u);
+  ASSERT_EQ(msg->colors.size(), 3u);
+  EXPECT_EQ(msg->points[1].x, 1.0);
+  EXPECT_FLOAT_EQ(msg->colors[1].g, 1.0f);
+  EXPECT_FLOAT_EQ(msg->colors[1].r, 0.0f);
+  EXPECT_EQ(msg->pose.orientation.w, 1.0);
+  EXPECT_EQ(msg->scale.x, 1.0);
+  // Without colours: one colour for the marker, none per point.
+  mesh.vertices.colors.clear();
+  const visualization_msgs::MarkerPtr grey = meshMarkerMsg(mesh, header);
+  EXPECT_TRUE(grey->colors.empty());
+  EXPECT_EQ(grey->points.size(), 3u);
+  EXPECT_GT(grey->color.a, 0.0f);
+}

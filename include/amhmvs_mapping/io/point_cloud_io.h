@@ -1,4 +1,4 @@
-// Point clouds and their files: binary PLY (MeshLab, CloudCompare, Open3D,
+// Point clouds, triangle meshes and their files: binary PLY (MeshLab, CloudCompare, Open3D,
 // PCL) and binary PCD (PCL), plus a PLY reader for our own and similar files.
 #pragma once
 
@@ -50,6 +50,21 @@ void writePointCloud(const std::string& path, const PointCloud& cloud);
 // by what the file can hold: a vertex count larger than the data (or than
 // kMaxPlyVertices) is refused before any memory is reserved.
 PointCloud readPly(const std::string& path);
+
+// A triangle mesh: vertices with their attributes, and triangles of vertex
+// indices (counter-clockwise seen from the side the normals face).
+struct TriangleMesh {
+  PointCloud vertices;
+  std::vector<std::array<uint32_t, 3>> triangles;
+  bool empty() const { return triangles.empty(); }
+  // Empty when the vertices are consistent and every index is in range.
+  std::string validate() const;
+};
+
+// Binary little-endian PLY with a "vertex" element (as writePly) and a "face"
+// element (uchar count, int indices), written atomically. Throws InputError
+// for an invalid mesh or a file that cannot be written.
+void writeMeshPly(const std::string& path, const TriangleMesh& mesh);
 
 // The most vertices readPly accepts (2^28: 3 GiB of float positions).
 constexpr size_t kMaxPlyVertices = size_t{1} << 28;

@@ -25,6 +25,8 @@
 //      keyframes of a run), it is fused again by fuseAgain() once more views
 //      see it, during the next 8 depth maps (confidence.again_with_more_views);
 //   6. those points into the global VoxelMap at the keyframe's current pose;
+//      with surface.enabled its published depth (step 7) into the TSDF
+//      surface map too, and the mesh extracted again where it changed;
 //   7. with confidence.enabled, when it is fused: its calibrated per-pixel
 //      confidence against the same consistency views and its depth map as
 //      published, masked below confidence.min_probability
@@ -154,6 +156,11 @@ struct OnlineMapperOptions {
   RollingShutterOptions rolling_shutter;
   // Step 8: the temporal depth filter (off).
   TemporalDepthOptions depth_filter;
+  // Step 6 also integrates each fused keyframe's published depth (weighted by
+  // its confidence, with the keyframe's colours) into a TSDF surface map
+  // and extracts its mesh where it changed (tsdf_map.h). Without
+  // confidence.enabled there is no published depth and no surface map.
+  TsdfMapOptions surface;
   // The voxel-map update of a fused keyframe runs on a worker thread while
   // the caller goes on (with a GPU estimator: while the next keyframe is
   // estimated, when the CPU would otherwise wait); every later use of the
@@ -166,6 +173,10 @@ struct OnlineMapperOptions {
 
 // Appends each line of a group's validate() to `out`, prefixed "group: ".
 void appendProblems(const std::string& group, const std::string& problems, std::ostringstream* out);
+
+// The surface map the mapper keeps: surface, enabled only with
+// confidence.enabled too (it integrates the published depth).
+TsdfMapOptions keptSurface(const OnlineMapperOptions& options);
 
 // Depth estimation as the mapper calls it. Throws like DepthEstimator::estimate.
 // Problems carry keyframe ids as image keys: an estimator that keeps images
@@ -347,6 +358,8 @@ class OnlineMapper {
   const KeyframeStore& store() const { return store_; }
   // The map, after any update in the background finished.
   const VoxelMap& map() const { return map_.map(); }
+  // The surface map (null with surface.enabled off), after any update in the background.
+  const TsdfMap* surface() const { return map_.surface(); }
   // Voxels after the last finished map update (does not wait).
   size_t mapVoxelCount() const { return map_.voxelCount(); }
   // Waits for a map update in the background (an exception it threw is
@@ -402,6 +415,8 @@ class OnlineMapper {
   bool stereoPosesMoved(int64_t id, const KeyframeRecord& record) const;
   // Re-checks every waiting keyframe; fuses those with enough views.
   void fuseWaiting(KeyframeResult* result);
+  // What the surface map takes of a fused keyframe (nothing when it is off).
+  Shared<SurfaceDepth> surfaceDepth(int64_t id, const PublishedDepth& published) const;
   // Fuses keyframe `id` against `views` now (its points, confidence, map).
   void fuseNow(int64_t id, std::vector<int64_t> views, KeyframeResult* result);
   // Fuses an already fused keyframe again, as the result of this step.
@@ -438,7 +453,7 @@ class OnlineMapper {
   };
   DeferredFusion deferred_;
   KeyframeStore store_;
-  MapUpdater map_;  // the voxel map, updated in the background when map_in_background
+  MapUpdater map_;  // the voxel and surface maps, updated in the background when map_in_background
   ConsistencyFusion consistency_;  // reads store_ and poses_
   FusionSchedule schedule_;
   TemporalDepth temporal_;  // step 8

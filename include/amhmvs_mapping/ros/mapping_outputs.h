@@ -11,6 +11,9 @@
 //     fused (again, after a refinement);
 //   map: the global voxel map in the fixed frame, latched, published when it
 //     changed (at most once per ~map_publish_period) and to a new subscriber;
+//   mesh (visualization_msgs/Marker, TRIANGLE_LIST) and surface (its
+//     vertices as a cloud): with ~surface/enabled, the surface map in the
+//     fixed frame, latched, published with the map;
 //   keyframe_markers: keyframe frusta and the newest source links;
 //   tf: ~view_frame (static, child of the fixed frame) where the first
 //     keyframe with depth looked, the target of the rviz config's view.
@@ -70,6 +73,7 @@ class MappingOutputs {
   image_transport::CameraPublisher depth_pub_, depth_mm_pub_;  // depth_mm_pub_: with publish_depth_mm
   image_transport::Publisher confidence_pub_, preview_pub_;
   ros::Publisher cloud_pub_, map_pub_, markers_pub_;
+  ros::Publisher mesh_pub_, surface_pub_;  // with surface/enabled
   uint64_t published_map_revision_ = 0;
   bool published_map_ = false;
   ros::WallTime last_map_publish_;

@@ -14,6 +14,7 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_msgs/Header.h>
+#include <visualization_msgs/Marker.h>
 
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
@@ -68,6 +69,10 @@ sensor_msgs::ImagePtr depthPreviewMsg(const amhmvs::ImageF& depth, const std_msg
 // fixed frame, or a keyframe's fused points in its optical frame). Entries
 // with a non-finite position or normal are left out: no NaN points.
 sensor_msgs::PointCloud2Ptr cloudMsg(const amhmvs::PointCloud& cloud, const std_msgs::Header& header);
+// A triangle mesh as rviz draws it: one TRIANGLE_LIST marker (three points
+// per triangle, a colour per point from the vertices' colours, grey where the
+// mesh has none). Triangles with a non-finite vertex are left out.
+visualization_msgs::MarkerPtr meshMarkerMsg(const amhmvs::TriangleMesh& mesh, const std_msgs::Header& header);
 // A keyframe's fused points (camera frame) in the cloud layout.
 amhmvs::PointCloud keyframeCloud(const amhmvs::KeyframePoints& points);
 

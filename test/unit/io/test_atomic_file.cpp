@@ -61,6 +61,12 @@ std::vector<Writer> writers() {
       {"PNM", "image.ppm", [image](const std::string& p) { writePnm(p, image); }},
       {"PLY", "map.ply", [cloud](const std::string& p) { writePly(p, cloud); }},
       {"PCD", "map.pcd", [cloud](const std::string& p) { writePcd(p, cloud); }},
+      {"PLY mesh", "mesh.ply", [cloud](const std::string& p) {
+         TriangleMesh mesh;
+         mesh.vertices = cloud;
+         for (uint32_t i = 0; i + 2 < cloud.size(); ++i) mesh.triangles.push_back({i, i + 1, i + 2});
+         writeMeshPly(p, mesh);
+       }},
       {"TUM trajectory", "poses.txt", [poses](const std::string& p) { writeTumTrajectory(p, poses, "test"); }},
       {"MVSNet camera", "00000000_cam.txt", [camera](const std::string& p) { writeMvsnetCam(p, camera, 1.0, 5.0); }},
       {"text", "summary.json", [](const std::string& p) { writeFileAtomically(p, std::string(3000, 'x'), "summary"); }},

@@ -46,6 +46,36 @@ TEST(PointCloudIo, PlyRoundTripKeepsEveryAttributeExactly) {
   EXPECT_EQ(bytes.rfind("ply\nformat binary_little_endian 1.0\n", 0), 0u);
 }
 
+TEST(PointCloudIo, MeshPlyHasTheVerticesAndTrianglesAndRefusesBadIndices) {
+  test::TempDir dir;
+  TriangleMesh mesh;
+  mesh.vertices = sampleCloud(true);
+  mesh.triangles = {{{0, 1, 2}}, {{2, 1, 3}}};
+  writeMeshPly(dir.file("m.ply"), mesh);
+  const std::string bytes = fileBytes(dir.file("m.ply"));
+  const size_t header_end = bytes.find("end_header\n");
+  ASSERT_NE(header_end, std::string::npos);
+  const std::string header = bytes.substr(0, header_end);
+  EXPECT_NE(header.find("element vertex " + std::to_string(mesh.vertices.size())), std::string::npos);
+  EXPECT_NE(header.find("element face 2\nproperty list uchar int vertex_indices"), std::string::npos);
+  // The faces are the last 2 x 13 bytes: a count of 3 and three little-endian indices.
+  const std::string faces = bytes.substr(bytes.size() - 26);
+  EXPECT_EQ(faces[0], 3);
+  int32_t index;
+  std::memcpy(&index, faces.data() + 13 + 9, 4);
+  EXPECT_EQ(index, 3);
+  // The vertices read back as a cloud.
+  const PointCloud back = readPly(dir.file("m.ply"));
+  EXPECT_EQ(back.points, mesh.vertices.points);
+  mesh.triangles.push_back({{0, 1, static_cast<uint32_t>(mesh.vertices.size())}});
+  try {
+    writeMeshPly(dir.file("bad.ply"), mesh);
+    FAIL() << "an index past the vertices was written";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("triangle 2 refers to vertex"), std::string::npos);
+  }
+}
+
 TEST(PointCloudIo, PlyHeaderNamesTheStandardProperties) {
   test::TempDir dir;
   writePly(dir.file("c.ply"), sampleCloud(true));

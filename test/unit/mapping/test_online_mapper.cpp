@@ -1016,5 +1016,39 @@ TEST(OnlineMapper, TemporalDepthRepublishesEachKeyframeAtItsRateUntilFinal) {
   EXPECT_TRUE(mapper.observe(keyframeAt(102, 2.2)).empty());
 }
 
+// Step 6's surface map: the published depth of each fused keyframe in the
+// TSDF, its mesh on the wall, moved by a loop closure, emptied by a reset;
+// none without the confidence.
+TEST(OnlineMapper, SurfaceMapMeshesThePublishedDepthAndFollowsReposingAndReset) {
+  OnlineMapperOptions options = wallOptions();
+  ASSERT_TRUE(options.surface.enabled);  // the default
+  options.surface.voxel_size = 0.1;
+  options.confidence.min_probability = 0;  // few views: below the shipped level everywhere
+  OnlineMapper mapper(options, wallDepth);
+  for (int i = 0; i < 5; ++i) mapper.process(keyframeAt(i, 0.5 * i));
+  ASSERT_NE(mapper.surface(), nullptr);
+  EXPECT_EQ(mapper.surface()->keyframeCount(), 4u);  // keyframes 1-4 are fused
+  const TriangleMesh mesh = mapper.surface()->mesh();
+  ASSERT_GT(mesh.triangles.size(), 100u);
+  for (const Eigen::Vector3f& p : mesh.vertices.points) ASSERT_NEAR(p.z(), test::kWallZ, 1e-3);
+  for (const auto& colour : mesh.vertices.colors) ASSERT_EQ(colour[0], 128);  // the keyframes' grey
+  // A loop closure moves keyframe 2 by 0.3 m towards the wall: it now sees
+  // the wall 0.3 m nearer, so it adds a second sheet where it alone has weight.
+  const uint64_t revision = mapper.mapRevision();
+  ASSERT_TRUE(mapper.updatePose(2, test::poseAt({1.0, 0, 0.3})));
+  EXPECT_GT(mapper.mapRevision(), revision);
+  EXPECT_TRUE(mapper.surface()->meshIsCurrent());
+  EXPECT_TRUE(mapper.surface()->contains(2));
+  mapper.reset();
+  ASSERT_NE(mapper.surface(), nullptr);
+  EXPECT_EQ(mapper.surface()->keyframeCount(), 0u);
+  EXPECT_TRUE(mapper.surface()->mesh().empty());
+
+  options.confidence.enabled = false;  // nothing published: no surface map
+  OnlineMapper without(options, wallDepth);
+  for (int i = 0; i < 3; ++i) without.process(keyframeAt(i, 0.5 * i));
+  EXPECT_EQ(without.surface(), nullptr);
+}
+
 }  // namespace
 }  // namespace amhmvs

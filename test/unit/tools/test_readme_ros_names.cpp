@@ -47,7 +47,7 @@ struct KnownNames {
 
 // First string literal of every statement that advertises or subscribes.
 void addCommunicationNames(const std::string& code, KnownNames* known) {
-  static const std::regex call(R"((advertiseService|advertiseCamera|advertise|subscribe|Subscriber(Filter)?\b))"
+  static const std::regex call(R"((advertiseService|advertiseCamera|advertise(?:Latched)?|subscribe|Subscriber(Filter)?\b))"
                                R"((<[^;(]*>)?\s*\([^;"]*"([^"]+)\")");
   for (std::sregex_iterator it(code.begin(), code.end(), call), end; it != end; ++it) {
     const std::string name = (*it)[4];

@@ -1,0 +1,162 @@
+// The surface map: a truncated signed distance field integrated from the
+// keyframes' published depth (weighted by its confidence) in voxel-hashed
+// blocks, and the triangle mesh of its zero level (marching cubes), extracted
+// again only where it changed.
+//
+//   TsdfMap map(options);
+//   map.addKeyframe(id, camera_to_world, depth);  // depth: published depth, confidence, colour
+//   map.updatePose(id, new_camera_to_world);      // loop closure: exact
+//   map.updateMesh();                             // changed blocks only
+//   TriangleMesh mesh = map.mesh();               // world frame
+//
+// Voxel (i, j, k) has its centre at (i, j, k) x voxel_size, world frame; a
+// block holds 8^3 voxels. Each keyframe's (subsampled) depth is kept with the
+// blocks it touched, so removing it subtracts what it added (tsdf_voxel.h)
+// and re-posing is remove + add. A block whose last keyframe left is erased.
+//
+// Memory bound: before a keyframe is added, the oldest keyframes (never the
+// one being added) are removed until its new blocks fit max_blocks and the
+// kept depth images fit max_keyframes; blocks that still do not fit are
+// dropped (counted). Depth beyond 2^16 blocks of the origin on an axis
+// (10 km at 2 cm voxels) is skipped.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "amhmvs_mapping/core/camera.h"
+#include "amhmvs_mapping/core/image.h"
+#include "amhmvs_mapping/core/shared.h"
+#include "amhmvs_mapping/io/point_cloud_io.h"
+#include "amhmvs_mapping/mapping/tsdf_voxel.h"
+
+namespace amhmvs {
+
+struct TsdfMapOptions {
+  // The online mapper keeps a surface map beside the voxel map (its
+  // published depth integrated; needs confidence.enabled).
+  bool enabled = true;
+  double voxel_size = 0.02;      // metres
+  double band_voxels = 4;        // truncation band, in voxels (> 1)
+  // Depth images wider than this are subsampled (every n-th pixel) before
+  // they are integrated and kept: a 2 cm voxel at 2-4 m spans 1-2 pixels of
+  // a 320-pixel-wide image with a 60 degree field of view.
+  int max_image_width = 320;
+  // A voxel with less weight (sum of confidences: about the keyframes whose
+  // published depth reached it) counts as unobserved: no surface passes
+  // through its cells. On redkitchen (docs/accuracy.md, "Surface map") 2
+  // covers as much of the Kinect surface as the voxel map; 4 is more
+  // accurate than it and covers two thirds as much.
+  double min_weight = 2;
+  size_t max_blocks = 40000;     // 8^3 voxels of 32 bytes: 16 KiB a block
+  size_t max_keyframes = 600;    // depth images kept for re-posing (~0.6 MiB each at 320x240)
+
+  // Empty when valid; otherwise one line per problem.
+  std::string validate() const;
+};
+
+// What a keyframe gives the surface map.
+struct SurfaceDepth {
+  PinholeCamera camera;  // intrinsics and size; the pose is given to the map
+  ImageF depth;          // z-depth, metres; NaN or <= 0 where none
+  ImageF weight;         // >= 0 (the calibrated confidence); empty: 1
+  ImageU8 colour;        // RGB (3 channels) or grey (1); empty: grey 200
+
+  // Empty when usable: a valid camera, depth of its size, weight and colour
+  // empty or of its size, finite non-negative weights.
+  std::string validate() const;
+};
+
+struct TsdfMapUpdate {
+  size_t blocks = 0;                      // blocks the keyframe touched
+  size_t new_blocks = 0;                  // of those, allocated for it
+  size_t dropped_blocks = 0;              // did not fit max_blocks
+  std::vector<int64_t> evicted_keyframes;  // removed to make room, oldest first
+};
+
+class TsdfMap {
+ public:
+  static constexpr int kBlockVoxels = 8;  // per edge
+
+  // Throws InputError when the options are invalid.
+  explicit TsdfMap(const TsdfMapOptions& options = TsdfMapOptions());
+
+  // Integrates keyframe `id`'s depth at camera_to_world; an id already in the
+  // map is replaced. Throws InputError for invalid depth or a bad pose.
+  TsdfMapUpdate addKeyframe(int64_t id, const Eigen::Isometry3d& camera_to_world, const SurfaceDepth& depth);
+  // Throws InputError for an unknown id.
+  void removeKeyframe(int64_t id);
+  TsdfMapUpdate updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world);
+
+  bool contains(int64_t id) const { return keyframes_.count(id) != 0; }
+  size_t keyframeCount() const { return keyframes_.size(); }
+  size_t blockCount() const { return blocks_.size(); }
+  size_t memoryBytes() const;
+  size_t totalDroppedBlocks() const { return total_dropped_blocks_; }
+  size_t totalEvictedKeyframes() const { return total_evicted_keyframes_; }
+  const TsdfMapOptions& options() const { return options_; }
+
+  // Extracts the mesh again in the blocks changed since the last call and in
+  // the neighbours whose cells read them; returns how many blocks it visited.
+  size_t updateMesh();
+  bool meshIsCurrent() const { return changed_.empty(); }
+  // The mesh as of the last updateMesh(), world frame, blocks in key order:
+  // vertices with unit normals (area-weighted face normals) and colours.
+  TriangleMesh mesh() const;
+  // Its vertices as a cloud (normals, colours), each vertex once.
+  PointCloud surfaceCloud() const;
+
+  // A voxel, or nullptr where its block is not allocated (tests, tools).
+  const TsdfVoxel* voxel(const Eigen::Vector3i& index) const;
+  Eigen::Vector3d voxelCentre(const Eigen::Vector3i& index) const { return index.cast<double>() * options_.voxel_size; }
+
+ private:
+  struct Block {
+    TsdfVoxel voxels[kBlockVoxels * kBlockVoxels * kBlockVoxels];
+    uint32_t keyframes = 0;  // contributions that touched it
+  };
+  struct Contribution {
+    uint64_t sequence = 0;
+    Eigen::Isometry3d camera_to_world;
+    Shared<SurfaceDepth> depth;    // subsampled
+    std::vector<uint64_t> blocks;  // sorted keys
+  };
+  struct BlockMesh {
+    std::vector<Eigen::Vector3f> vertices, normals;
+    std::vector<std::array<uint8_t, 3>> colors;
+    std::vector<std::array<uint32_t, 3>> triangles;
+    std::vector<uint64_t> edges;  // each vertex's voxel edge (start voxel, axis): one key across blocks
+  };
+
+  std::vector<uint64_t> touchedBlocks(const Eigen::Isometry3d& camera_to_world, const SurfaceDepth& depth) const;
+  void integrate(const Contribution& contribution, float sign);
+  void insert(int64_t id, Contribution contribution, TsdfMapUpdate* update);
+  void remove(int64_t id);
+  void extractBlock(uint64_t key, BlockMesh* mesh) const;
+  const Block* block(uint64_t key) const;
+
+  TsdfMapOptions options_;
+  std::unordered_map<uint64_t, std::unique_ptr<Block>> blocks_;
+  std::unordered_map<int64_t, Contribution> keyframes_;
+  std::map<uint64_t, int64_t> order_;  // sequence -> id, oldest first
+  uint64_t next_sequence_ = 0;
+  std::unordered_set<uint64_t> changed_;      // blocks changed since the last updateMesh()
+  std::map<uint64_t, BlockMesh> meshes_;      // by block key: deterministic order
+  size_t total_dropped_blocks_ = 0;
+  size_t total_evicted_keyframes_ = 0;
+};
+
+// Every n-th pixel of `depth` so that it is at most max_width wide, with its
+// camera scaled to match (pixel (x, y) of the result is (n x, n y)).
+SurfaceDepth subsampledSurfaceDepth(const SurfaceDepth& depth, int max_width);
+
+}  // namespace amhmvs
