@@ -31,7 +31,7 @@ packages=(
   ros-sensor-msgs ros-geometry-msgs ros-nav-msgs ros-visualization-msgs
   ros-std-srvs libstd-srvs-dev python3-std-srvs
   libmessage-filters-dev python3-message-filters
-  python3-sensor-msgs python3-geometry-msgs python3-nav-msgs
+  python3-sensor-msgs python3-geometry-msgs python3-nav-msgs python3-visualization-msgs
   libeigen3-dev libopencv-dev libopencv-contrib-dev libceres-dev libgtest-dev googletest python3-numpy python3-opencv
   rviz xvfb imagemagick libgl1-mesa-dri python3-tf2-msgs python3-diagnostic-msgs python3-rosnode python3-yaml
 )

@@ -73,6 +73,12 @@ fi
 python3 "$here/scripts/publish_ply.py" "$map" cloud:=/amhmvs_demo/map mesh:=/amhmvs_demo/mesh _up:="${up:-0,0,1}" \
   >"$work/publish.log" 2>&1 &
 pids+=($!)
+publisher=$!
+published() {
+  kill -0 "$publisher" 2>/dev/null || { echo "render_rviz_snapshot: publish_ply.py failed:" >&2; tail -5 "$work/publish.log" >&2; exit 1; }
+  grep -q "published" "$work/publish.log"
+}
+wait_for 120 "the map to be published" published
 rviz -d "$config" >"$work/rviz.log" 2>&1 &
 pids+=($!)
 subscribed() {

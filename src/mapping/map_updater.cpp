@@ -31,10 +31,8 @@ void MapUpdater::add(int64_t id, const Eigen::Isometry3d& pose, Shared<KeyframeP
     record.update = map_.addKeyframe(id, pose, points);
     if (surface_ && !surface->depth.empty()) {
       record.surface = surface_->addKeyframe(id, pose, *surface);
-      surface_->updateMesh();
     } else if (surface_ && surface_->contains(id)) {
       surface_->removeKeyframe(id);  // fused again without a published depth
-      surface_->updateMesh();
     }
     record.milliseconds = millisecondsSince(start);
     return record;
@@ -54,7 +52,6 @@ bool MapUpdater::remove(int64_t id) {
   const bool in_surface = surface_ && surface_->contains(id);
   if (in_surface) {
     surface_->removeKeyframe(id);
-    surface_->updateMesh();
   }
   if (!map_.contains(id)) {
     if (in_surface) noteChanged();
@@ -70,7 +67,6 @@ bool MapUpdater::updatePose(int64_t id, const Eigen::Isometry3d& pose) {
   const bool in_surface = surface_ && surface_->contains(id);
   if (in_surface) {
     surface_->updatePose(id, pose);
-    surface_->updateMesh();
   }
   if (!map_.contains(id)) {
     if (in_surface) noteChanged();

@@ -169,6 +169,8 @@ void TsdfMap::integrate(const Contribution& contribution, float sign) {
   const Eigen::Matrix3f rotation = world_to_camera.linear().cast<float>();
   const float band = static_cast<float>(options_.band_voxels * options_.voxel_size);
   const double voxel_size = options_.voxel_size;
+  const float fx = static_cast<float>(camera.fx), fy = static_cast<float>(camera.fy);
+  const float cx = static_cast<float>(camera.cx), cy = static_cast<float>(camera.cy);
   std::vector<Block*> targets;
   std::vector<Eigen::Vector3i> origins;
   for (uint64_t key : contribution.blocks) {
@@ -190,8 +192,9 @@ void TsdfMap::integrate(const Contribution& contribution, float sign) {
         for (int x = 0; x < kB; ++x) {
           const Eigen::Vector3f p = origin + step * Eigen::Vector3f(x, y, z);
           if (!(p.z() > 0)) continue;
-          const int u = static_cast<int>(std::lround(camera.fx * p.x() / p.z() + camera.cx));
-          const int v = static_cast<int>(std::lround(camera.fy * p.y() / p.z() + camera.cy));
+          const float inverse_z = 1.0f / p.z();
+          const int u = static_cast<int>(std::floor(fx * p.x() * inverse_z + cx + 0.5f));
+          const int v = static_cast<int>(std::floor(fy * p.y() * inverse_z + cy + 0.5f));
           if (u < 0 || v < 0 || u >= camera.width || v >= camera.height) continue;
           float distance;
           if (!truncatedDistance(depth.depth.at(u, v), p.z(), band, &distance)) continue;
@@ -293,7 +296,7 @@ TsdfMapUpdate TsdfMap::updatePose(int64_t id, const Eigen::Isometry3d& camera_to
   return update;
 }
 
-size_t TsdfMap::updateMesh() {
+size_t TsdfMap::updateMesh() const {
   // A cell reads the voxels of its block and of the blocks at +1 on each
   // axis: a change re-extracts the block and the ones at -1.
   std::vector<uint64_t> visit;
@@ -331,54 +334,69 @@ void TsdfMap::extractBlock(uint64_t key, BlockMesh* mesh) const {
     const Eigen::Vector3i other = b + Eigen::Vector3i(n & 1, (n >> 1) & 1, (n >> 2) & 1);
     near[n] = blockInRange(other) ? block(blockKey(other)) : nullptr;
   }
-  const auto voxelAt = [&near](int x, int y, int z) -> const TsdfVoxel* {
-    const int n = (x >= kB) | ((y >= kB) << 1) | ((z >= kB) << 2);
-    if (!near[n]) return nullptr;
-    return &near[n]->voxels[voxelSlot(x % kB, y % kB, z % kB)];
-  };
-  const float min_weight = static_cast<float>(options_.min_weight);
+  // The 9^3 corners its cells read, gathered once: the voxel where observed
+  // (weight >= min_weight), else null, and its distance.
+  constexpr int kC = kB + 1;
+  const TsdfVoxel* corner_voxel[kC * kC * kC];
+  float corner_value[kC * kC * kC];
+  const auto cornerIndex = [](int x, int y, int z) { return x + kC * (y + kC * z); };
+  bool any_negative = false, any_positive = false;
+  for (int z = 0; z < kC; ++z)
+    for (int y = 0; y < kC; ++y)
+      for (int x = 0; x < kC; ++x) {
+        const Block* source = near[(x >= kB) | ((y >= kB) << 1) | ((z >= kB) << 2)];
+        const TsdfVoxel* voxel = source ? &source->voxels[voxelSlot(x % kB, y % kB, z % kB)] : nullptr;
+        if (voxel && !(voxel->weight >= options_.min_weight)) voxel = nullptr;
+        const int i = cornerIndex(x, y, z);
+        corner_voxel[i] = voxel;
+        corner_value[i] = voxel ? voxel->distance() : 0.0f;
+        any_negative = any_negative || (voxel && corner_value[i] < 0);
+        any_positive = any_positive || (voxel && corner_value[i] >= 0);
+      }
+  if (!any_negative || !any_positive) return;  // no surface in reach
+  CellEdge edges[kCellEdges];
+  int corner_offset[kCellCorners];
+  for (int e = 0; e < kCellEdges; ++e) edges[e] = cellEdge(e);
+  for (int c = 0; c < kCellCorners; ++c) corner_offset[c] = cornerIndex(c & 1, (c >> 1) & 1, (c >> 2) & 1);
   const Eigen::Vector3f origin = ((kB * b).cast<double>() * options_.voxel_size).cast<float>();
   const float voxel_size = static_cast<float>(options_.voxel_size);
-  // Vertex of each crossed edge, by (start voxel, axis) within the block's 9^3 corners.
-  std::vector<int32_t> vertex_of_edge((kB + 1) * (kB + 1) * (kB + 1) * 3, -1);
+  // Vertex of each crossed edge, by (start corner, axis).
+  int32_t vertex_of_edge[kC * kC * kC * 3];
+  std::fill(std::begin(vertex_of_edge), std::end(vertex_of_edge), -1);
   for (int z = 0; z < kB; ++z) {
     for (int y = 0; y < kB; ++y) {
       for (int x = 0; x < kB; ++x) {
+        const int base = cornerIndex(x, y, z);
         float value[kCellCorners];
-        const TsdfVoxel* corner[kCellCorners];
         int case_index = 0;
         bool observed = true;
         for (int c = 0; c < kCellCorners && observed; ++c) {
-          corner[c] = voxelAt(x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1));
-          observed = corner[c] && corner[c]->weight >= min_weight;
-          if (observed) {
-            value[c] = corner[c]->distance();
-            case_index |= (value[c] < 0) << c;
-          }
+          observed = corner_voxel[base + corner_offset[c]] != nullptr;
+          value[c] = corner_value[base + corner_offset[c]];
+          case_index |= (value[c] < 0) << c;
         }
         if (!observed || case_index == 0 || case_index == 255) continue;
-        const CellCase& cell = cellCase(case_index);
         // A jump from +1 to -1 across one voxel is a depth edge (occlusion), not a surface.
         bool depth_edge = false;
-        for (int e = 0; e < kCellEdges; ++e) {
-          const CellEdge& edge = cellEdge(e);
+        for (const CellEdge& edge : edges) {
           const float a = value[edge.corner[0]], v1 = value[edge.corner[1]];
-          if ((a < 0) != (v1 < 0) && std::abs(a) >= 1 && std::abs(v1) >= 1) depth_edge = true;
+          depth_edge = depth_edge || ((a < 0) != (v1 < 0) && std::abs(a) >= 1 && std::abs(v1) >= 1);
         }
         if (depth_edge) continue;
+        const CellCase& cell = cellCase(case_index);
         for (int t = 0; t < cell.triangle_count; ++t) {
           std::array<uint32_t, 3> triangle;
           for (int k = 0; k < 3; ++k) {
-            const CellEdge& edge = cellEdge(cell.triangles[t][k]);
+            const CellEdge& edge = edges[cell.triangles[t][k]];
             const int c0 = edge.corner[0];
             const int sx = x + (c0 & 1), sy = y + ((c0 >> 1) & 1), sz = z + ((c0 >> 2) & 1);
-            int32_t& slot = vertex_of_edge[3 * (sx + (kB + 1) * (sy + (kB + 1) * sz)) + edge.axis];
+            int32_t& slot = vertex_of_edge[3 * cornerIndex(sx, sy, sz) + edge.axis];
             if (slot < 0) {
               const float f = crossingFraction(value[c0], value[edge.corner[1]]);
               Eigen::Vector3f position = origin + voxel_size * Eigen::Vector3f(sx, sy, sz);
               position[edge.axis] += f * voxel_size;
-              const TsdfVoxel& a = *corner[c0];
-              const TsdfVoxel& v1 = *corner[edge.corner[1]];
+              const TsdfVoxel& a = *corner_voxel[base + corner_offset[c0]];
+              const TsdfVoxel& v1 = *corner_voxel[base + corner_offset[edge.corner[1]]];
               std::array<uint8_t, 3> rgb;
               for (int ch = 0; ch < 3; ++ch) {
                 const float colour =
@@ -412,6 +430,7 @@ void TsdfMap::extractBlock(uint64_t key, BlockMesh* mesh) const {
 }
 
 TriangleMesh TsdfMap::mesh() const {
+  updateMesh();
   TriangleMesh mesh;
   PointCloud& vertices = mesh.vertices;
   for (const auto& entry : meshes_) {
@@ -426,6 +445,7 @@ TriangleMesh TsdfMap::mesh() const {
 }
 
 PointCloud TsdfMap::surfaceCloud() const {
+  updateMesh();
   PointCloud cloud;
   std::unordered_set<uint64_t> taken;  // a vertex on a block border is in both blocks' meshes
   for (const auto& entry : meshes_) {

@@ -35,8 +35,8 @@ class MapUpdater {
   MapUpdater& operator=(const MapUpdater&) = delete;
 
   // Adds (or replaces) a keyframe's points at `pose`, and its depth in the
-  // surface map when that is enabled and `surface` has depth (then the mesh
-  // is extracted again where it changed); in the background when asked.
+  // surface map when that is enabled and `surface` has depth (its mesh is
+  // extracted where it changed when it is read); in the background when asked.
   void add(int64_t id, const Eigen::Isometry3d& pose, Shared<KeyframePoints> points, Shared<SurfaceDepth> surface,
            bool in_background);
   bool remove(int64_t id);  // false: it was not in the map

@@ -26,7 +26,7 @@
 //      see it, during the next 8 depth maps (confidence.again_with_more_views);
 //   6. those points into the global VoxelMap at the keyframe's current pose;
 //      with surface.enabled its published depth (step 7) into the TSDF
-//      surface map too, and the mesh extracted again where it changed;
+//      surface map too (its mesh extracted again where it changed when read);
 //   7. with confidence.enabled, when it is fused: its calibrated per-pixel
 //      confidence against the same consistency views and its depth map as
 //      published, masked below confidence.min_probability

@@ -107,10 +107,13 @@ class TsdfMap {
 
   // Extracts the mesh again in the blocks changed since the last call and in
   // the neighbours whose cells read them; returns how many blocks it visited.
-  size_t updateMesh();
+  // mesh() and surfaceCloud() call it first, so that a map updated many
+  // times between two reads extracts each changed block once.
+  size_t updateMesh() const;
   bool meshIsCurrent() const { return changed_.empty(); }
-  // The mesh as of the last updateMesh(), world frame, blocks in key order:
-  // vertices with unit normals (area-weighted face normals) and colours.
+  // The mesh, world frame, blocks in key order: vertices with unit normals
+  // (area-weighted face normals) and colours. Not thread-safe with itself
+  // (it may extract), like the map's updates.
   TriangleMesh mesh() const;
   // Its vertices as a cloud (normals, colours), each vertex once.
   PointCloud surfaceCloud() const;
@@ -149,8 +152,10 @@ class TsdfMap {
   std::unordered_map<int64_t, Contribution> keyframes_;
   std::map<uint64_t, int64_t> order_;  // sequence -> id, oldest first
   uint64_t next_sequence_ = 0;
-  std::unordered_set<uint64_t> changed_;      // blocks changed since the last updateMesh()
-  std::map<uint64_t, BlockMesh> meshes_;      // by block key: deterministic order
+  // Blocks changed since the last updateMesh(), and the mesh (by block key:
+  // deterministic order), brought up to date when read.
+  mutable std::unordered_set<uint64_t> changed_;
+  mutable std::map<uint64_t, BlockMesh> meshes_;
   size_t total_dropped_blocks_ = 0;
   size_t total_evicted_keyframes_ = 0;
 };

@@ -1032,13 +1032,19 @@ TEST(OnlineMapper, SurfaceMapMeshesThePublishedDepthAndFollowsReposingAndReset) 
   ASSERT_GT(mesh.triangles.size(), 100u);
   for (const Eigen::Vector3f& p : mesh.vertices.points) ASSERT_NEAR(p.z(), test::kWallZ, 1e-3);
   for (const auto& colour : mesh.vertices.colors) ASSERT_EQ(colour[0], 128);  // the keyframes' grey
-  // A loop closure moves keyframe 2 by 0.3 m towards the wall: it now sees
-  // the wall 0.3 m nearer, so it adds a second sheet where it alone has weight.
+  // A loop closure moves keyframe 2 by 1 m along its optical axis: its depth
+  // now lies at z = 6, beyond the band, so the wall loses its weight (the
+  // mesh changes when it is next read) and it alone is too light for a mesh.
   const uint64_t revision = mapper.mapRevision();
-  ASSERT_TRUE(mapper.updatePose(2, test::poseAt({1.0, 0, 0.3})));
+  ASSERT_TRUE(mapper.updatePose(2, test::poseAt({1.0, 0, 1.0})));
   EXPECT_GT(mapper.mapRevision(), revision);
-  EXPECT_TRUE(mapper.surface()->meshIsCurrent());
+  EXPECT_FALSE(mapper.surface()->meshIsCurrent());
   EXPECT_TRUE(mapper.surface()->contains(2));
+  const TriangleMesh moved = mapper.surface()->mesh();
+  EXPECT_TRUE(mapper.surface()->meshIsCurrent());
+  EXPECT_NE(moved.triangles.size(), mesh.triangles.size());
+  for (const Eigen::Vector3f& p : moved.vertices.points)
+    ASSERT_NEAR(p.z(), test::kWallZ, 1e-3);
   mapper.reset();
   ASSERT_NE(mapper.surface(), nullptr);
   EXPECT_EQ(mapper.surface()->keyframeCount(), 0u);
