@@ -263,7 +263,7 @@ ros_tests=(
   "hostile_input hostile_input.test"
   "hostile_stream hostile_stream.test"
   "bad_input bad_input.test"
-  "fountain_shipped_defaults replay_fountain.test defaults:=true"
+  "fountain_shipped_defaults replay_fountain.test defaults:=true shutdown_map:=$ros_results/fountain_shipped_defaults_shutdown_map.ply"
   "temple_shipped_defaults replay_map.test scene:=temple defaults:=true"
   "redkitchen_shipped_defaults replay_map.test scene:=redkitchen defaults:=true bag:=$kitchen_bag"
   "realism_tracker_settings replay_map.test scene:=realism bag:=$realism_bag truth_dir:=$realism_dir"

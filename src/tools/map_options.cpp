@@ -127,7 +127,7 @@ std::string mapToolUsage() {
          "NaN invalid or below --confidence_level; written when the keyframe is fused, again when\n"
          "a refinement is), clouds/NNNNNN.ply (each keyframe's fused points, world frame, at the\n"
          "tracker's pose), previews/NNNNNN.png (colour-mapped depth, with --write_previews),\n"
-         "map.ply (the voxel map), keyframe_poses.txt (where the map placed each keyframe: TUM\n"
+         "map.ply (the voxel map), mesh.ply (the surface mesh, with surface/enabled), keyframe_poses.txt (where the map placed each keyframe: TUM\n"
          "format, 'stamp tx ty tz qx qy qz qw', camera-to-world), keyframes.csv and keyframes.jsonl (one row per result: new, late or refined\n"
          "depth map; sources, depth range, stage times in ms, accuracy vs ground truth) and\n"
          "summary.json. Files are written by a writer thread, off the pipeline's path.\n"

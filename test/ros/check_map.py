@@ -19,7 +19,11 @@ spaced) within 2 cm of a point of the back-projected true depth. With
 ~min_map_within_5cm and ~truth_topic, the last map is judged against the
 surface of the truth images themselves (every other pixel of each,
 back-projected with the camera_info and the pose topic of its stamp, e.g. the
-Kinect depth of a 7-Scenes bag): at least that percent within 5 cm."""
+Kinect depth of a 7-Scenes bag): at least that percent within 5 cm. With
+~min_mesh_triangles, the last surface mesh (`mesh`, a TRIANGLE_LIST marker)
+has at least that many triangles, no NaN vertex, the map's frame, and with
+~min_mesh_within_5cm (and ~truth_topic) at least that percent of its vertices
+within 5 cm of the truth images' surface."""
 import glob
 import math
 import os
@@ -34,6 +38,7 @@ import rostest
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import CameraInfo, Image, PointCloud2
 import sensor_msgs.point_cloud2 as pc2
+from visualization_msgs.msg import Marker
 
 from node_watch import NodeWatch
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'scripts'))
@@ -64,6 +69,9 @@ class MapReplay(unittest.TestCase):
         cls.info = watch.record(ns + '/depth/camera_info', CameraInfo)
         cls.clouds = watch.record(ns + '/keyframe_cloud', PointCloud2)
         cls.maps = watch.record(ns + '/map', PointCloud2)
+        cls.min_mesh_triangles = rospy.get_param('~min_mesh_triangles', 0)
+        cls.min_mesh_within_5cm = rospy.get_param('~min_mesh_within_5cm', 0.0)
+        cls.meshes = watch.record(ns + '/mesh', Marker) if cls.min_mesh_triangles > 0 else []
         cls.truth_topic = rospy.get_param('~truth_topic', '')
         cls.truth = watch.record(cls.truth_topic, Image) if cls.truth_topic else []
         cls.max_median_error = rospy.get_param('~max_median_error', 1.0)
@@ -74,7 +82,7 @@ class MapReplay(unittest.TestCase):
         cls.min_map_within_2cm = rospy.get_param('~min_map_within_2cm', 0.0)
         cls.map_sample = rospy.get_param('~map_sample', 5000)
         cls.min_map_within_5cm = rospy.get_param('~min_map_within_5cm', 0.0)
-        if cls.min_map_within_5cm > 0:
+        if cls.min_map_within_5cm > 0 or cls.min_mesh_within_5cm > 0:
             cls.poses = watch.record(rospy.get_param('~pose_topic', '/camera/pose'), PoseStamped)
             cls.camera_infos = watch.record(rospy.get_param('~camera_info_topic', '/camera/camera_info'), CameraInfo)
 
@@ -190,25 +198,50 @@ class MapReplay(unittest.TestCase):
     def test_08_map_against_truth_images(self):
         if not (self.min_map_within_5cm > 0 and self.truth_topic):
             self.skipTest('no ~min_map_within_5cm with a ~truth_topic')
+        within = self.map_within(self.truth_surface(), 0.05, 'the surface of %d truth images' % len(self.truth))
+        self.assertGreaterEqual(within, self.min_map_within_5cm)
+
+    def test_09_mesh(self):
+        if self.min_mesh_triangles <= 0:
+            self.skipTest('no ~min_mesh_triangles')
+        self.assertTrue(self.meshes, 'no mesh received')
+        mesh = self.meshes[-1]
+        self.assertEqual(mesh.type, Marker.TRIANGLE_LIST)
+        self.assertEqual(mesh.header.frame_id, self.maps[-1].header.frame_id if self.maps else mesh.header.frame_id)
+        self.assertEqual(len(mesh.points) % 3, 0)
+        self.assertIn(len(mesh.colors), (0, len(mesh.points)))
+        vertices = np.array([(p.x, p.y, p.z) for p in mesh.points])
+        self.assertTrue(np.all(np.isfinite(vertices)), 'a NaN vertex in the mesh')
+        rospy.loginfo('check_map: mesh of %d triangles', len(mesh.points) // 3)
+        self.assertGreaterEqual(len(mesh.points) // 3, self.min_mesh_triangles)
+        if self.min_mesh_within_5cm > 0 and self.truth_topic:
+            unique = np.unique(vertices, axis=0)
+            within = self.points_within(unique, self.truth_surface(), 0.05, 'mesh', 'the truth images')
+            self.assertGreaterEqual(within, self.min_mesh_within_5cm)
+
+    def truth_surface(self):
+        """The truth images back-projected at the poses of their stamps (every other pixel)."""
         poses = {m.header.stamp: m.pose for m in self.poses}
         infos = {m.header.stamp: m for m in self.camera_infos}
         usable = [m for m in self.truth if m.header.stamp in poses and m.header.stamp in infos]
         self.assertEqual(len(usable), len(self.truth), 'a truth image without the pose or camera_info of its stamp')
-        points = np.concatenate([truth_image_points(m, infos[m.header.stamp], poses[m.header.stamp]) for m in usable])
-        within = self.map_within(points, 0.05, 'the surface of %d truth images' % len(usable))
-        self.assertGreaterEqual(within, self.min_map_within_5cm)
+        return np.concatenate([truth_image_points(m, infos[m.header.stamp], poses[m.header.stamp]) for m in usable])
+
+    def points_within(self, points, surface_points, radius, what, surface_name):
+        """Percent of `points` (up to ~map_sample, evenly spaced) within `radius` of a surface point."""
+        step = max(1, len(points) // self.map_sample)
+        sample = points[::step]
+        surface = SurfaceIndex(surface_points, radius)
+        within = 100.0 * sum(1 for p in sample if surface.within(p)) / len(sample)
+        rospy.loginfo('check_map: %s %d points, %.1f %% of %d sampled within %g cm of %s', what, len(points), within,
+                      len(sample), 100 * radius, surface_name)
+        return within
 
     def map_within(self, surface_points, radius, surface_name):
         """Percent of the last map's sampled points within `radius` of a surface point."""
         self.assertTrue(self.maps, 'no map received')
         points = list(pc2.read_points(self.maps[-1], field_names=('x', 'y', 'z')))
-        step = max(1, len(points) // self.map_sample)
-        sample = points[::step]
-        surface = SurfaceIndex(surface_points, radius)
-        within = 100.0 * sum(1 for p in sample if surface.within(p)) / len(sample)
-        rospy.loginfo('check_map: map %d points, %.1f %% of %d sampled within %g cm of %s', len(points), within,
-                      len(sample), 100 * radius, surface_name)
-        return within
+        return self.points_within(points, surface_points, radius, 'map', surface_name)
 
 
 def true_surface(dense_dir):

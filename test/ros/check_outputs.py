@@ -342,19 +342,32 @@ class ReplayOutputs(unittest.TestCase):
         self.assertEqual(rosnode.kill_nodes([node])[1], [], 'could not ask ' + node + ' to shut down')
         # Bounds, not guesses: the worker ends after the step it is in, then
         # the map is saved (renamed into place whole) and the process exits.
-        deadline = time.time() + 60
-        while time.time() < deadline and not os.path.exists(path):
-            time.sleep(0.2)
-        self.assertTrue(os.path.exists(path), 'no map at ' + path + ' within 60 s of the shutdown')
-        with open(path, 'rb') as f:
-            header = f.read(2000).decode('ascii', 'replace')
-        count = int([l for l in header.splitlines() if l.startswith('element vertex')][0].split()[-1])
+        count = ply_count(path, 'element vertex', 60, 'no map at ' + path + ' within 60 s of the shutdown')
         rospy.loginfo('check_outputs: %s written at shutdown by %s, %d points', path, node, count)
         self.assertEqual(count, self.rec.maps[-1].width)
+        if rospy.get_param(node + '/surface/enabled', True) and rospy.get_param(node + '/confidence/enabled', True):
+            # The surface mesh beside it, written after the map.
+            mesh_path = os.path.splitext(path)[0] + '_mesh.ply'
+            faces = ply_count(mesh_path, 'element face', 30, 'no mesh at ' + mesh_path + ' after the map')
+            rospy.loginfo('check_outputs: %s written at shutdown, %d triangles', mesh_path, faces)
+            self.assertGreater(faces, 0)
         deadline = time.time() + 20
         while time.time() < deadline and rosnode.rosnode_ping(node, max_count=1):
             time.sleep(0.5)
         self.assertFalse(rosnode.rosnode_ping(node, max_count=1), node + ' still answers 20 s after its map was saved')
+
+def ply_count(path, line_start, seconds, missing):
+    """The count on a PLY header's line (e.g. 'element vertex N') once the
+    file is there (renamed into place whole), waiting at most `seconds`."""
+    deadline = time.time() + seconds
+    while time.time() < deadline and not os.path.exists(path):
+        time.sleep(0.2)
+    if not os.path.exists(path):
+        raise AssertionError(missing)
+    with open(path, 'rb') as f:
+        header = f.read(2000).decode('ascii', 'replace')
+    return int([l for l in header.splitlines() if l.startswith(line_start)][0].split()[-1])
+
 
 if __name__ == '__main__':
     rostest.rosrun('amhmvs_mapping', 'replay_fountain', ReplayOutputs, sys.argv)
