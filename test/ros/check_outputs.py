@@ -345,7 +345,8 @@ class ReplayOutputs(unittest.TestCase):
         count = ply_count(path, 'element vertex', 60, 'no map at ' + path + ' within 60 s of the shutdown')
         rospy.loginfo('check_outputs: %s written at shutdown by %s, %d points', path, node, count)
         self.assertEqual(count, self.rec.maps[-1].width)
-        if rospy.get_param(node + '/surface/enabled', True) and rospy.get_param(node + '/confidence/enabled', True):
+        params = self.ns + '/mapping'  # the nodelet's, also when `node` is its manager
+        if rospy.get_param(params + '/surface/enabled', True) and rospy.get_param(params + '/confidence/enabled', True):
             # The surface mesh beside it, written after the map.
             mesh_path = os.path.splitext(path)[0] + '_mesh.ply'
             faces = ply_count(mesh_path, 'element face', 30, 'no mesh at ' + mesh_path + ' after the map')

@@ -71,6 +71,7 @@ inline OnlineMapperOptions wallOptions() {
   options.sources.default_scene_depth = kWallZ;
   options.sources.min_overlap = 0.3;
   options.map.leaf_size = 0.05;
+  options.surface.voxel_size = 0.1;  // a 5 m wall seen through 17 cm pixels
   return options;
 }
 
