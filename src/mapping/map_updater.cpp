@@ -30,7 +30,7 @@ void MapUpdater::add(int64_t id, const Eigen::Isometry3d& pose, Shared<KeyframeP
     record.id = id;
     record.update = map_.addKeyframe(id, pose, points);
     if (surface_ && !surface->depth.empty()) {
-      record.surface = surface_->addKeyframe(id, pose, *surface);
+      record.surface = surface_->addKeyframe(id, pose, surface);
     } else if (surface_ && surface_->contains(id)) {
       surface_->removeKeyframe(id);  // fused again without a published depth
     }

@@ -211,15 +211,18 @@ void TsdfMap::integrate(const Contribution& contribution, float sign) {
   }
 }
 
-TsdfMapUpdate TsdfMap::addKeyframe(int64_t id, const Eigen::Isometry3d& camera_to_world, const SurfaceDepth& depth) {
+TsdfMapUpdate TsdfMap::addKeyframe(int64_t id, const Eigen::Isometry3d& camera_to_world,
+                                   Shared<SurfaceDepth> depth) {
   const std::string pose_problem = validateRigidPose(camera_to_world);
   if (!pose_problem.empty()) throw InputError("surface map, keyframe " + std::to_string(id) + ": " + pose_problem);
-  const std::string problem = depth.validate();
+  const std::string problem = depth->validate();
   if (!problem.empty()) throw InputError("surface map, keyframe " + std::to_string(id) + ": " + problem);
   if (contains(id)) remove(id);
   Contribution contribution;
   contribution.camera_to_world = camera_to_world;
-  contribution.depth = Shared<SurfaceDepth>(subsampledSurfaceDepth(depth, options_.max_image_width));
+  contribution.depth = depth->camera.width > options_.max_image_width
+                           ? Shared<SurfaceDepth>(subsampledSurfaceDepth(*depth, options_.max_image_width))
+                           : std::move(depth);
   TsdfMapUpdate update;
   insert(id, std::move(contribution), &update);
   return update;

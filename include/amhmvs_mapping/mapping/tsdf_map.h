@@ -92,7 +92,8 @@ class TsdfMap {
 
   // Integrates keyframe `id`'s depth at camera_to_world; an id already in the
   // map is replaced. Throws InputError for invalid depth or a bad pose.
-  TsdfMapUpdate addKeyframe(int64_t id, const Eigen::Isometry3d& camera_to_world, const SurfaceDepth& depth);
+  // Kept as given (shared, not copied) unless it is wider than max_image_width.
+  TsdfMapUpdate addKeyframe(int64_t id, const Eigen::Isometry3d& camera_to_world, Shared<SurfaceDepth> depth);
   // Throws InputError for an unknown id.
   void removeKeyframe(int64_t id);
   TsdfMapUpdate updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world);
