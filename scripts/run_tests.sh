@@ -266,6 +266,7 @@ ros_tests=(
   "fountain_shipped_defaults replay_fountain.test defaults:=true shutdown_map:=$ros_results/fountain_shipped_defaults_shutdown_map.ply"
   "temple_shipped_defaults replay_map.test scene:=temple defaults:=true"
   "redkitchen_shipped_defaults replay_map.test scene:=redkitchen defaults:=true bag:=$kitchen_bag"
+  "saturated_input saturated_input.test bag:=$kitchen_bag"
   "realism_tracker_settings replay_map.test scene:=realism bag:=$realism_bag truth_dir:=$realism_dir"
   "depth_interop depth_interop.test"
   "fountain_compressed_jpeg replay_fountain.test compressed:=jpeg"

@@ -35,6 +35,9 @@ void MapUpdater::add(int64_t id, const Eigen::Isometry3d& pose, Shared<KeyframeP
       surface_->removeKeyframe(id);  // fused again without a published depth
     }
     record.milliseconds = millisecondsSince(start);
+    record.memory_bytes = map_.memoryBytes() + (surface_ ? surface_->memoryBytes() : 0);
+    record.kept_points = map_.storedPointCount();
+    record.surface_blocks = surface_ ? surface_->blockCount() : 0;
     return record;
   };
   if (in_background) {

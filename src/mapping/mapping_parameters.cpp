@@ -227,7 +227,10 @@ const Table<VoxelMapOptions>& mapTable() {
   static const Table<VoxelMapOptions> table = {
       withAlias(numberField("voxel_size", &O::leaf_size, "voxel edge, metres"), "voxel_size"),
       advanced(numberField("max_voxels", &O::max_voxels,
-                           "voxels kept; beyond, the oldest keyframes' points are removed")),
+                           "voxels kept; beyond, the oldest reposable keyframes' points are removed, then new points dropped")),
+      advanced(numberField("reposable_keyframes", &O::reposable_keyframes,
+                           "newest keyframes whose points are kept so that loop closures can move them; older ones "
+                           "are frozen (they stay in the map, fixed)")),
       withAlias(numberField("min_points_per_voxel", &O::min_points_per_voxel,
                             "voxels with fewer fused points are kept but not published (1: every voxel)"),
                 "min_points_per_voxel"),
@@ -250,9 +253,11 @@ const Table<TsdfMapOptions>& surfaceTable() {
       advanced(numberField("min_weight", &O::min_weight,
                            "voxels with less weight (sum of confidences) are unobserved: no surface through them")),
       advanced(numberField("max_blocks", &O::max_blocks,
-                           "8^3-voxel blocks kept (16 KiB each); beyond, the oldest keyframes are removed")),
-      advanced(numberField("max_keyframes", &O::max_keyframes,
-                           "keyframes' depth kept for re-posing; beyond, the oldest keyframes are removed")),
+                           "8^3-voxel blocks kept (16 KiB each); beyond, the oldest reposable keyframes are removed, "
+                           "then new blocks dropped")),
+      advanced(numberField("reposable_keyframes", &O::reposable_keyframes,
+                           "newest keyframes whose depth is kept so that loop closures can move them; older ones are "
+                           "frozen (they stay in the surface, fixed)")),
   };
   return table;
 }

@@ -86,6 +86,15 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"rolling_shutter_rectified", &PipelineStats::rolling_shutter_rectified},
       {"rolling_shutter_not_rectified", &PipelineStats::rolling_shutter_not_rectified},
       {"map voxels", &PipelineStats::map_voxels},
+      {"map_keyframes_frozen", &PipelineStats::map_keyframes_frozen},
+      {"surface_keyframes_frozen", &PipelineStats::surface_keyframes_frozen},
+      {"map_refusions_refused_frozen", &PipelineStats::map_refusions_refused_frozen},
+      {"surface_blocks_dropped", &PipelineStats::surface_blocks_dropped},
+      {"surface_blocks_pruned", &PipelineStats::surface_blocks_pruned},
+      {"surface_keyframes_evicted", &PipelineStats::surface_keyframes_evicted},
+      {"map_points_kept", &PipelineStats::map_points_kept},
+      {"surface_blocks", &PipelineStats::surface_blocks},
+      {"map_memory_mib", &PipelineStats::map_memory_mib},
   };
   return fields;
 }
@@ -688,6 +697,15 @@ std::vector<PipelineOutput> MappingPipeline::step() {
     stats_.map_points_over_budget += record.update.dropped_over_budget;
     stats_.map_points_outside_region += record.update.outside_region;
     stats_.last_map_update_ms = record.milliseconds;
+    stats_.map_keyframes_frozen += record.update.frozen_keyframes.size();
+    stats_.surface_keyframes_frozen += record.surface.frozen_keyframes.size();
+    stats_.map_refusions_refused_frozen += record.update.refused_frozen;
+    stats_.surface_blocks_dropped += record.surface.dropped_blocks;
+    stats_.surface_blocks_pruned += record.surface.pruned_blocks;
+    stats_.surface_keyframes_evicted += record.surface.evicted_keyframes.size();
+    stats_.map_points_kept = record.kept_points;
+    stats_.surface_blocks = record.surface_blocks;
+    stats_.map_memory_mib = record.memory_bytes >> 20;
   }
   stats_.stored_keyframes = mapper_->store().size();
   stats_.keyframes_evicted = mapper_->store().evictedCount();

@@ -44,7 +44,7 @@ std::string TsdfMapOptions::validate() const {
   if (max_image_width < 8) problems << "max_image_width must be >= 8 (is " << max_image_width << ")\n";
   if (!(min_weight > 0) || !std::isfinite(min_weight)) problems << "min_weight must be > 0 (is " << min_weight << ")\n";
   if (max_blocks < 1) problems << "max_blocks must be >= 1\n";
-  if (max_keyframes < 1) problems << "max_keyframes must be >= 1\n";
+  if (reposable_keyframes < 1) problems << "reposable_keyframes must be >= 1\n";
   return problems.str();
 }
 
@@ -112,7 +112,7 @@ const TsdfVoxel* TsdfMap::voxel(const Eigen::Vector3i& index) const {
 }
 
 size_t TsdfMap::memoryBytes() const {
-  size_t bytes = blocks_.size() * (sizeof(Block) + 32);
+  size_t bytes = blocks_.size() * (sizeof(Block) + 32) + frozen_.size() * 32;
   for (const auto& entry : keyframes_) {
     const SurfaceDepth& d = *entry.second.depth;
     bytes += d.depth.data.size() * 4 + d.weight.data.size() * 4 + d.colour.data.size() + entry.second.blocks.size() * 8;
@@ -217,13 +217,17 @@ TsdfMapUpdate TsdfMap::addKeyframe(int64_t id, const Eigen::Isometry3d& camera_t
   if (!pose_problem.empty()) throw InputError("surface map, keyframe " + std::to_string(id) + ": " + pose_problem);
   const std::string problem = depth->validate();
   if (!problem.empty()) throw InputError("surface map, keyframe " + std::to_string(id) + ": " + problem);
+  TsdfMapUpdate update;
+  if (isFrozen(id)) {
+    update.refused_frozen = true;
+    return update;
+  }
   if (contains(id)) remove(id);
   Contribution contribution;
   contribution.camera_to_world = camera_to_world;
   contribution.depth = depth->camera.width > options_.max_image_width
                            ? Shared<SurfaceDepth>(subsampledSurfaceDepth(*depth, options_.max_image_width))
                            : std::move(depth);
-  TsdfMapUpdate update;
   insert(id, std::move(contribution), &update);
   return update;
 }
@@ -235,8 +239,9 @@ void TsdfMap::insert(int64_t id, Contribution contribution, TsdfMapUpdate* updat
     for (uint64_t key : contribution.blocks) count += blocks_.count(key) == 0;
     return count;
   };
+  while (!order_.empty() && keyframes_.size() + 1 > options_.reposable_keyframes) freezeOldest(update);
   size_t needed = newBlocks();
-  while (!order_.empty() && (blocks_.size() + needed > options_.max_blocks || keyframes_.size() + 1 > options_.max_keyframes)) {
+  while (!order_.empty() && blocks_.size() + needed > options_.max_blocks) {
     const int64_t oldest = order_.begin()->second;
     remove(oldest);
     update->evicted_keyframes.push_back(oldest);
@@ -275,19 +280,58 @@ void TsdfMap::remove(int64_t id) {
   for (uint64_t key : contribution.blocks) {
     const auto block = blocks_.find(key);
     changed_.insert(key);
-    if (--block->second->keyframes == 0) blocks_.erase(block);  // its sums restart from exact zeros
+    if (--block->second->keyframes == 0) {
+      blocks_.erase(block);  // its sums restart from exact zeros
+    } else {
+      pruneIfForeverEmpty(block);
+    }
   }
   order_.erase(contribution.sequence);
   keyframes_.erase(found);
 }
 
+void TsdfMap::freezeOldest(TsdfMapUpdate* update) {
+  // Its sums stay, and so does its count in each block it touched: those
+  // blocks are never erased.
+  const auto oldest = order_.begin();
+  const int64_t id = oldest->second;
+  for (uint64_t key : keyframes_.at(id).blocks) {
+    const auto block = blocks_.find(key);
+    ++block->second->frozen;
+    update->pruned_blocks += pruneIfForeverEmpty(block);
+  }
+  keyframes_.erase(id);
+  order_.erase(oldest);
+  frozen_.insert(id);
+  update->frozen_keyframes.push_back(id);
+}
+
+bool TsdfMap::pruneIfForeverEmpty(std::unordered_map<uint64_t, std::unique_ptr<Block>>::iterator block) {
+  const Block& b = *block->second;
+  if (b.keyframes != b.frozen) return false;
+  // No observed voxel: no cell that reads one of them has a surface, so the
+  // mesh is the same without the block.
+  for (const TsdfVoxel& voxel : b.voxels)
+    if (voxel.weight >= options_.min_weight) return false;
+  changed_.insert(block->first);
+  blocks_.erase(block);
+  return true;
+}
+
+namespace {
+std::string notReposable(int64_t id, bool frozen) {
+  return "surface map: keyframe " + std::to_string(id) +
+         (frozen ? " is frozen (older than the newest reposable_keyframes)" : " is not in the map");
+}
+}  // namespace
+
 void TsdfMap::removeKeyframe(int64_t id) {
-  if (!contains(id)) throw InputError("surface map: no keyframe " + std::to_string(id));
+  if (!contains(id)) throw InputError(notReposable(id, isFrozen(id)));
   remove(id);
 }
 
 TsdfMapUpdate TsdfMap::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world) {
-  if (!contains(id)) throw InputError("surface map: no keyframe " + std::to_string(id));
+  if (!contains(id)) throw InputError(notReposable(id, isFrozen(id)));
   const std::string pose_problem = validateRigidPose(camera_to_world);
   if (!pose_problem.empty()) throw InputError("surface map, keyframe " + std::to_string(id) + ": " + pose_problem);
   Contribution moved;

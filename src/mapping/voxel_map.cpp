@@ -47,7 +47,7 @@ std::string VoxelMapOptions::validate() const {
   }
   if (max_voxels == 0) why << "max_voxels must be positive\n";
   if (max_points == 0) why << "max_points must be positive\n";
-  if (max_keyframes == 0) why << "max_keyframes must be positive\n";
+  if (reposable_keyframes == 0) why << "reposable_keyframes must be positive\n";
   if (!(min_points_per_voxel >= 1)) why << "min_points_per_voxel must be at least 1 (got " << min_points_per_voxel << ")\n";
   for (int axis = 0; axis < 3; ++axis) {
     if (!(region_min[axis] < region_max[axis]))  // also catches NaN
@@ -258,6 +258,19 @@ void VoxelMap::removeContribution(const KeyframeContribution& contribution) {
   apply(sums, -1.0);
 }
 
+void VoxelMap::freezeOldest(VoxelMapUpdate* update) {
+  const auto oldest = order_.begin();
+  const int64_t id = oldest->second;
+  const auto it = keyframes_.find(id);
+  // Its sums stay in the voxels; the points that could take them out again go.
+  for (uint64_t key : it->second.keys) points_outside_region_ -= key == kOutsideRegion;
+  stored_points_ -= it->second.points->size();
+  keyframes_.erase(it);
+  order_.erase(oldest);
+  frozen_.insert(id);
+  update->frozen_keyframes.push_back(id);
+}
+
 void VoxelMap::evictOldest(VoxelMapUpdate* update) {
   const auto oldest = order_.begin();
   const int64_t id = oldest->second;
@@ -314,16 +327,16 @@ VoxelMapUpdate VoxelMap::insert(int64_t id, uint64_t sequence,
   sumPerVoxel(placed, accepted, &sums);
   std::vector<VoxelSums>& voxels = sums.voxels;
 
-  // Make room: oldest keyframes first, until the points, the keyframe and its
-  // new voxels fit.
+  // Make room: the oldest keyframes' points are released until the new ones
+  // fit, then the oldest contributions removed until the new voxels do.
   const auto newVoxelsNeeded = [&]() {
     size_t fresh = 0;
     for (const VoxelSums& entry : voxels) fresh += shard(entry.key).count(entry.key) == 0;
     return fresh;
   };
   while (!order_.empty() && (stored_points_ + placed.size() > options_.max_points ||
-                             keyframes_.size() + 1 > options_.max_keyframes)) {
-    evictOldest(&update);
+                             keyframes_.size() + 1 > options_.reposable_keyframes)) {
+    freezeOldest(&update);
   }
   while (!order_.empty() && voxelCount() + voxels.size() > options_.max_voxels &&
          voxelCount() + newVoxelsNeeded() > options_.max_voxels) {
@@ -396,6 +409,12 @@ VoxelMapUpdate VoxelMap::addKeyframe(int64_t id, const Eigen::Isometry3d& camera
                                      Shared<KeyframePoints> points) {
   const std::string why = validateRigidPose(camera_to_world);
   if (!why.empty()) throw InputError("voxel map: keyframe " + std::to_string(id) + ": " + why);
+  if (isFrozen(id)) {
+    ++total_refused_frozen_;
+    VoxelMapUpdate refused;
+    refused.refused_frozen = true;
+    return refused;
+  }
   if (contains(id)) removeKeyframe(id);
   return insert(id, next_sequence_++, camera_to_world, points);
 }
@@ -403,7 +422,9 @@ VoxelMapUpdate VoxelMap::addKeyframe(int64_t id, const Eigen::Isometry3d& camera
 void VoxelMap::removeKeyframe(int64_t id) {
   const auto it = keyframes_.find(id);
   if (it == keyframes_.end()) {
-    throw InputError("voxel map: keyframe " + std::to_string(id) + " is not in the map");
+    throw InputError("voxel map: keyframe " + std::to_string(id) +
+                     (isFrozen(id) ? " is frozen (older than the newest reposable_keyframes): it stays"
+                                   : " is not in the map"));
   }
   removeContribution(it->second);
   stored_points_ -= it->second.points->size();
@@ -415,7 +436,8 @@ VoxelMapUpdate VoxelMap::updatePose(int64_t id, const Eigen::Isometry3d& camera_
   const auto it = keyframes_.find(id);
   if (it == keyframes_.end()) {
     throw InputError("voxel map: cannot update the pose of keyframe " + std::to_string(id) +
-                     ": it is not in the map");
+                     (isFrozen(id) ? ": it is frozen (older than the newest reposable_keyframes)"
+                                   : ": it is not in the map"));
   }
   const std::string why = validateRigidPose(camera_to_world);
   if (!why.empty()) throw InputError("voxel map: keyframe " + std::to_string(id) + ": " + why);
@@ -452,7 +474,7 @@ size_t VoxelMap::memoryBytes() const {
     voxel_bytes += table.size() * (sizeof(Voxel) + sizeof(uint64_t) + 16) + table.bucket_count() * sizeof(void*);
   }
   const size_t point_bytes = stored_points_ * (sizeof(KeyframePoint) + sizeof(uint64_t));
-  const size_t keyframe_bytes = keyframes_.size() * (sizeof(KeyframeContribution) + 64);
+  const size_t keyframe_bytes = keyframes_.size() * (sizeof(KeyframeContribution) + 64) + frozen_.size() * 32;
   return voxel_bytes + point_bytes + keyframe_bytes;
 }
 

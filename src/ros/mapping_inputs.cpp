@@ -36,6 +36,7 @@ const std::vector<InputStatField>& inputStatFields() {
       {"dropped: bad_stamp", &InputStats::dropped_bad_stamp},
       {"dropped: missing_tf", &InputStats::dropped_missing_tf},
       {"dropped: bad_pose_update", &InputStats::dropped_bad_pose_update},
+      {"dropped: before_subscriber", &InputStats::dropped_before_subscriber},
       {"clock_jumps_back", &InputStats::clock_jumps_back},
   };
   return fields;
@@ -135,10 +136,29 @@ size_t MappingInputs::watch(const std::string& name, std::function<uint32_t()> p
   return topics_.size() - 1;
 }
 
-void MappingInputs::noteArrival(size_t topic) {
+void MappingInputs::noteArrival(size_t topic, uint32_t seq) {
+  uint64_t gap = 0;
+  std::string name;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    Topic& watched = topics_[topic];
+    watched.last_arrival = ros::WallTime::now();
+    gap = watched.gaps.arrive(seq);
+    ++watched.messages;
+    name = watched.name;
+  }
+  if (gap > 0)
+    drop(&InputStats::dropped_before_subscriber,
+         std::to_string(gap) + " message(s) on " + name +
+             " never reached the subscriber (its queue, ~sync_queue_size, overflowed while the CPU was busy)",
+         gap);
+}
+
+std::vector<std::pair<std::string, uint64_t>> MappingInputs::messagesLost() const {
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  topics_[topic].last_arrival = ros::WallTime::now();
-  ++topics_[topic].messages;
+  std::vector<std::pair<std::string, uint64_t>> counts;
+  for (const Topic& topic : topics_) counts.push_back({topic.name, topic.gaps.lost()});
+  return counts;
 }
 
 std::vector<std::pair<std::string, uint64_t>> MappingInputs::messagesReceived() const {
@@ -210,10 +230,6 @@ bool MappingInputs::inputEnded(double silence_s) const {
 void MappingInputs::noteSynchronised() {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   last_synchronised_ = ros::WallTime::now();
-  if (keyframe_sub_) {  // keyframe mode: the one topic
-    topics_[frame_topic_].last_arrival = last_synchronised_;
-    ++topics_[frame_topic_].messages;
-  }
 }
 
 void MappingInputs::count(uint64_t InputStats::*counter) {
@@ -221,7 +237,7 @@ void MappingInputs::count(uint64_t InputStats::*counter) {
   ++(stats_.*counter);
 }
 
-void MappingInputs::drop(uint64_t InputStats::*counter, const std::string& detail) {
+void MappingInputs::drop(uint64_t InputStats::*counter, const std::string& detail, uint64_t count) {
   std::string reason = "input";
   for (const InputStatField& field : inputStatFields())
     if (field.value == counter) reason = field.name;
@@ -229,7 +245,7 @@ void MappingInputs::drop(uint64_t InputStats::*counter, const std::string& detai
   bool report;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    total = ++(stats_.*counter);
+    total = (stats_.*counter += count);
     const ros::WallTime now = ros::WallTime::now();
     ros::WallTime& last = last_report_[reason];
     report = last.isZero() || (now - last).toSec() >= kReportPeriod;
@@ -241,6 +257,7 @@ void MappingInputs::drop(uint64_t InputStats::*counter, const std::string& detai
 // ---------------------------------------------------------------- callbacks ---
 
 void MappingInputs::keyframeCallback(const amhmvs_mapping::KeyframeConstPtr& msg) {
+  noteArrival(frame_topic_, msg->header.seq);  // keyframe mode: the one topic
   noteSynchronised();
   Frame frame;
   frame.id = msg->keyframe_id;

@@ -272,6 +272,7 @@ void MappingNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& statu
   for (const InputStatField& field : inputStatFields()) status.add(field.name, input.*field.value);
   if (inputs_) {
     for (const auto& [topic, messages] : inputs_->messagesReceived()) status.add("received on " + topic, messages);
+    for (const auto& [topic, messages] : inputs_->messagesLost()) status.add("lost on " + topic, messages);
     status.add("images_not_synchronised", inputs_->imagesNotSynchronised());
   }
   for (const amhmvs::PipelineStatField& field : amhmvs::pipelineStatFields())

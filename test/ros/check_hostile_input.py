@@ -30,7 +30,17 @@ class HostileInput(unittest.TestCase):
         watch = NodeWatch(node)
         depth_stamps = []
         rospy.Subscriber('/amhmvs/depth/image', Image, lambda m: depth_stamps.append(m.header.stamp.to_sec()))
-        pub = rospy.Publisher('/keyframe', Keyframe, queue_size=100)
+        publisher = rospy.Publisher('/keyframe', Keyframe, queue_size=100)
+        published = [0]
+
+        class Counting:  # every message published, so that the node's counts can add up to it
+            def publish(self, msg):
+                published[0] += 1
+                publisher.publish(msg)
+
+            def get_num_connections(self):
+                return publisher.get_num_connections()
+        pub = Counting()
         frames = {}
         with rosbag.Bag(rospy.get_param('~bag')) as bag:
             for topic, msg, _ in bag.read_messages(['/camera/image_raw', '/camera/camera_info', '/camera/pose']):
@@ -125,6 +135,20 @@ class HostileInput(unittest.TestCase):
             pub.publish(kf)
         self.assertTrue(watch.wait_for(lambda: good[1].header.stamp.to_sec() in depth_stamps, 60),
                         watch.diagnostics)
+
+        # Every message published reached the node or is counted lost before
+        # it (the burst overflows the subscriber's queue, or rospy's own);
+        # the diagnostics that follow the last depth image have the last counts.
+        def counts():
+            return ([watch.count(k) for k in watch.diagnostics if k.startswith('received on ')],
+                    [watch.count(k) for k in watch.diagnostics if k.startswith('lost on ')])
+        watch.wait_for(lambda: sum(sum(c) for c in counts()) >= published[0], 10)
+        received, lost = counts()
+        rospy.loginfo('check_hostile_input: %d published, %s received, %s lost before the subscriber',
+                      published[0], received, lost)
+        self.assertEqual(len(received), 1, watch.diagnostics)
+        self.assertEqual(received[0] + lost[0], published[0], watch.diagnostics)
+        self.assertEqual(lost[0], watch.count('dropped: before_subscriber'))
 
 
 if __name__ == '__main__':

@@ -22,7 +22,8 @@ from node_watch import rss_mb  # noqa: E402 (beside the rostests' checkers)
 
 COLUMNS = ['wall_s', 'rss_mb', 'keyframes_received', 'depth_maps', 'stored_keyframes', 'map voxels', 'queued',
            'dropped', 'clock_jumps_back', 'pose_updates_applied', 'pose_updates_not_stored', 'resets',
-           'last keyframe ms']
+           'last keyframe ms', 'map_memory_mib', 'map_points_kept', 'surface_blocks', 'map_keyframes_frozen']
+DIAGNOSTICS_AT_END = COLUMNS[13:]  # straight from the diagnostics, after the derived columns
 WARM_UP_S = 300  # memory and times are compared after the first five minutes
 
 
@@ -86,7 +87,8 @@ class Monitor:
                     row = [round(now - start, 1), round(rss_mb(self.node), 1)] + \
                           [self.value(k) for k in COLUMNS[2:7]] + \
                           [sum(float(v) for k, v in self.diagnostics.items() if k.startswith('dropped: '))] + \
-                          [self.value(k) for k in COLUMNS[8:11]] + [self.resets, self.value('last keyframe ms')]
+                          [self.value(k) for k in COLUMNS[8:11]] + [self.resets, self.value('last keyframe ms')] + \
+                          [self.value(k) for k in DIAGNOSTICS_AT_END]
                     writer.writerow(row)
                     f.flush()
                     rows.append(dict(zip(COLUMNS, row)))
@@ -107,6 +109,19 @@ class Monitor:
             print('soak_monitor: too short for a summary (warm-up %d s)' % WARM_UP_S)
             return
         first, last = late[0], late[-1]
+        # Each ~reset starts the maps again: memory is flat when every reset
+        # cycle peaks at the same size (the allocator keeps what it had, so the
+        # resident size does not drop at a reset).
+        cycles = {}
+        for r in rows:
+            cycles.setdefault(int(r['resets']), []).append(r)
+        cycle_lines = ['cycle %d (%.0f-%.0f s): peak memory %.0f MB, maps %.0f MiB, %d voxels, %d surface blocks, '
+                       'kept points %d, median keyframe %.0f ms' % (
+                           k, c[0]['wall_s'], c[-1]['wall_s'], max(r['rss_mb'] for r in c),
+                           max(r['map_memory_mib'] for r in c), max(r['map voxels'] for r in c),
+                           max(r['surface_blocks'] for r in c), max(r['map_points_kept'] for r in c),
+                           statistics.median(r['last keyframe ms'] for r in c))
+                       for k, c in sorted(cycles.items())]
         hours = (last['wall_s'] - first['wall_s']) / 3600
         quarter = max(1, len(late) // 4)
         lines = [
@@ -122,9 +137,10 @@ class Monitor:
             'most stored keyframes %d (bound %d); most map voxels %d (bound %d)' % (
                 max(r['stored_keyframes'] for r in rows), rospy.get_param(self.node + '/store/max_keyframes'),
                 max(r['map voxels'] for r in rows), rospy.get_param(self.node + '/map/max_voxels')),
-            'pose updates applied %d, not stored %d; dropped in all %d' % (
-                last['pose_updates_applied'], last['pose_updates_not_stored'], last['dropped']),
-        ]
+            'pose updates applied %d, not stored %d; dropped in all %d; map keyframes frozen %d' % (
+                last['pose_updates_applied'], last['pose_updates_not_stored'], last['dropped'],
+                last['map_keyframes_frozen']),
+        ] + cycle_lines
         with open(os.path.join(self.out, 'summary.txt'), 'w') as f:
             f.write('\n'.join(lines) + '\n')
         print('\n'.join(lines))

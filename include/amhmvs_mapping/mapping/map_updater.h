@@ -19,6 +19,10 @@ struct MapUpdateRecord {
   VoxelMapUpdate update;
   TsdfMapUpdate surface;    // when the surface map took the keyframe's depth
   double milliseconds = 0;  // the update itself (on the worker thread when in the background)
+  // Both maps after the update: heap bytes, keyframe points kept for re-posing, surface blocks.
+  size_t memory_bytes = 0;
+  size_t kept_points = 0;
+  size_t surface_blocks = 0;
 };
 
 // The voxel map and the surface map (when enabled), and their updates,

@@ -137,6 +137,15 @@ struct PipelineStats {
   uint64_t map_points_skipped_invalid = 0;
   uint64_t map_points_over_budget = 0;
   uint64_t map_points_outside_region = 0;
+  // Keyframes whose points (map) or depth (surface) were released: they stay
+  // in the maps but can no longer be moved (map/reposable_keyframes); re-fusions
+  // of such a keyframe refused.
+  uint64_t map_keyframes_frozen = 0;
+  uint64_t surface_keyframes_frozen = 0;
+  uint64_t map_refusions_refused_frozen = 0;
+  uint64_t surface_blocks_dropped = 0;     // over surface/max_blocks
+  uint64_t surface_blocks_pruned = 0;      // frozen, no voxel at surface/min_weight: erased
+  uint64_t surface_keyframes_evicted = 0;  // removed from the surface map to make room
   uint64_t pose_updates_applied = 0;
   uint64_t pose_updates_not_stored = 0;  // evicted, reset, or not yet processed
   uint64_t bad_pose_updates = 0;
@@ -157,6 +166,11 @@ struct PipelineStats {
   uint64_t rolling_shutter_rectified = 0;
   uint64_t rolling_shutter_not_rectified = 0;
   uint64_t map_voxels = 0;
+  // As of the last map update: keyframe points kept for re-posing, surface
+  // blocks, and both maps' heap memory.
+  uint64_t map_points_kept = 0;
+  uint64_t surface_blocks = 0;
+  uint64_t map_memory_mib = 0;
   uint64_t map_revision = 0;
   bool idle = true;                    // the last step() found nothing to do and nothing is queued
   std::string backend = "not started"; // "cuda", "cpu", "cuda failed, now cpu"

@@ -14,9 +14,14 @@
 // blocks it touched, so removing it subtracts what it added (tsdf_voxel.h)
 // and re-posing is remove + add. A block whose last keyframe left is erased.
 //
-// Memory bound: before a keyframe is added, the oldest keyframes (never the
-// one being added) are removed until its new blocks fit max_blocks and the
-// kept depth images fit max_keyframes; blocks that still do not fit are
+// Memory bound: only the newest reposable_keyframes keep their depth; before
+// a keyframe is added, the oldest are frozen (their sums stay in the blocks;
+// the keyframe can no longer be moved, removed or replaced). A block that
+// only frozen keyframes touched and where no voxel reaches min_weight (the
+// outliers of noisy depth, scattered through space) is erased: the mesh is
+// the same without it, and a place revisited for hours does not fill the
+// memory with such blocks. Beyond max_blocks, the oldest keyframes that keep their depth
+// (never the one being added) are removed; blocks that still do not fit are
 // dropped (counted). Depth beyond 2^16 blocks of the origin on an axis
 // (10 km at 2 cm voxels) is skipped.
 #pragma once
@@ -58,7 +63,9 @@ struct TsdfMapOptions {
   // accurate than it and covers two thirds as much.
   double min_weight = 2;
   size_t max_blocks = 40000;     // 8^3 voxels of 32 bytes: 16 KiB a block
-  size_t max_keyframes = 600;    // depth images kept for re-posing (~0.6 MiB each at 320x240)
+  // Keyframes whose depth is kept so that a loop closure can move them (~0.6
+  // MiB each at 320x240); beyond, the oldest are frozen.
+  size_t reposable_keyframes = 600;
 
   // Empty when valid; otherwise one line per problem.
   std::string validate() const;
@@ -81,6 +88,9 @@ struct TsdfMapUpdate {
   size_t new_blocks = 0;                  // of those, allocated for it
   size_t dropped_blocks = 0;              // did not fit max_blocks
   std::vector<int64_t> evicted_keyframes;  // removed to make room, oldest first
+  std::vector<int64_t> frozen_keyframes;   // their depth released (reposable_keyframes), oldest first
+  size_t pruned_blocks = 0;                // erased: only frozen keyframes in them, no voxel at min_weight
+  bool refused_frozen = false;             // the id was frozen: nothing was integrated
 };
 
 class TsdfMap {
@@ -91,14 +101,18 @@ class TsdfMap {
   explicit TsdfMap(const TsdfMapOptions& options = TsdfMapOptions());
 
   // Integrates keyframe `id`'s depth at camera_to_world; an id already in the
-  // map is replaced. Throws InputError for invalid depth or a bad pose.
+  // map is replaced, a frozen one refused (TsdfMapUpdate::refused_frozen).
+  // Throws InputError for invalid depth or a bad pose.
   // Kept as given (shared, not copied) unless it is wider than max_image_width.
   TsdfMapUpdate addKeyframe(int64_t id, const Eigen::Isometry3d& camera_to_world, Shared<SurfaceDepth> depth);
   // Throws InputError for an unknown id.
   void removeKeyframe(int64_t id);
   TsdfMapUpdate updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world);
 
+  // True for the keyframes that keep their depth (frozen ones: isFrozen).
   bool contains(int64_t id) const { return keyframes_.count(id) != 0; }
+  bool isFrozen(int64_t id) const { return frozen_.count(id) != 0; }
+  size_t frozenKeyframeCount() const { return frozen_.size(); }
   size_t keyframeCount() const { return keyframes_.size(); }
   size_t blockCount() const { return blocks_.size(); }
   size_t memoryBytes() const;
@@ -127,6 +141,7 @@ class TsdfMap {
   struct Block {
     TsdfVoxel voxels[kBlockVoxels * kBlockVoxels * kBlockVoxels];
     uint32_t keyframes = 0;  // contributions that touched it
+    uint32_t frozen = 0;     // of those, frozen ones
   };
   struct Contribution {
     uint64_t sequence = 0;
@@ -145,6 +160,11 @@ class TsdfMap {
   void integrate(const Contribution& contribution, float sign);
   void insert(int64_t id, Contribution contribution, TsdfMapUpdate* update);
   void remove(int64_t id);
+  void freezeOldest(TsdfMapUpdate* update);
+  // Erases the block when only frozen keyframes touched it and none of its
+  // voxels reaches min_weight: it holds no surface, and nothing will ever
+  // take its sums out again. True when erased.
+  bool pruneIfForeverEmpty(std::unordered_map<uint64_t, std::unique_ptr<Block>>::iterator block);
   void extractBlock(uint64_t key, BlockMesh* mesh) const;
   const Block* block(uint64_t key) const;
 
@@ -159,6 +179,7 @@ class TsdfMap {
   mutable std::map<uint64_t, BlockMesh> meshes_;
   size_t total_dropped_blocks_ = 0;
   size_t total_evicted_keyframes_ = 0;
+  std::unordered_set<int64_t> frozen_;  // ids whose sums stay in their blocks, depth released
 };
 
 // Every n-th pixel of `depth` so that it is at most max_width wide, with its

@@ -13,11 +13,15 @@
 // the voxel each went to are kept, so re-posing = remove with the old pose +
 // add with the new one.
 //
-// Memory bound (VoxelMapOptions::max_voxels, max_points, max_keyframes):
-// before a keyframe is added, the contributions of the oldest keyframes (in
-// order of addition; never the one being added) are removed until its points
-// fit. A keyframe that alone exceeds the budget keeps its points in order up
-// to the budget; the rest are dropped and counted. Invalid points (NaN/inf
+// Memory bound. Only the newest keyframes keep their points (at most
+// VoxelMapOptions::reposable_keyframes of them and max_points points): before
+// a keyframe is added, the oldest are frozen until it fits. A frozen
+// keyframe's points stay in the voxels, but it can no longer be moved,
+// removed or replaced (a map that revisits one place for hours stays the
+// same size). Beyond max_voxels, the contributions of the oldest keyframes
+// that still keep their points (never the one being added) are removed; what
+// then still does not fit (the frozen voxels fill the budget, or the
+// keyframe alone exceeds it) is dropped in point order and counted. Invalid points (NaN/inf
 // position, normal or confidence, negative confidence, or beyond the voxel
 // index range of +-2^20 leaves from the origin) are skipped and counted,
 // never stored.
@@ -33,6 +37,7 @@
 #include <map>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include <limits>
@@ -49,8 +54,10 @@ namespace amhmvs {
 struct VoxelMapOptions {
   double leaf_size = 0.02;        // voxel edge, metres
   size_t max_voxels = 5000000;    // voxels in the map
-  size_t max_points = 20000000;   // keyframe points kept for re-posing
-  size_t max_keyframes = 100000;  // keyframes with a contribution
+  size_t max_points = 20000000;   // keyframe points kept for re-posing; beyond, the oldest keyframes are frozen
+  // Keyframes that keep their points so that a loop closure can move them (or
+  // a re-fusion replace them); beyond, the oldest are frozen.
+  size_t reposable_keyframes = 600;
   // Voxels with fewer points are kept (and counted) but not exported: a
   // surface fused from noisy depth is a few voxels thick, and its outer
   // voxels hold few points that sit farther off it (realism room, 2 cm
@@ -73,6 +80,8 @@ struct VoxelMapUpdate {
   size_t outside_region = 0;       // kept for re-posing, in no voxel
   size_t dropped_over_budget = 0;  // points that did not fit max_voxels / max_points
   std::vector<int64_t> evicted_keyframes;  // contributions removed to make room, oldest first
+  std::vector<int64_t> frozen_keyframes;   // their points released (reposable_keyframes, max_points), oldest first
+  bool refused_frozen = false;             // the id was frozen: nothing was added
 };
 
 class VoxelMap {
@@ -81,7 +90,8 @@ class VoxelMap {
   explicit VoxelMap(const VoxelMapOptions& options = VoxelMapOptions());
 
   // Adds keyframe `id`'s points (camera frame) at pose camera_to_world. An id
-  // already in the map is replaced (its old contribution removed first).
+  // already in the map is replaced (its old contribution removed first); a
+  // frozen id is refused (VoxelMapUpdate::refused_frozen, counted).
   // The map keeps the points for re-posing: shared with the caller when all
   // of them are accepted (the usual case), else a copy of the accepted ones.
   // Throws InputError for a non-finite or non-rigid pose.
@@ -94,7 +104,9 @@ class VoxelMap {
   // need more voxels than are free.
   VoxelMapUpdate updatePose(int64_t id, const Eigen::Isometry3d& camera_to_world);
 
+  // True for the keyframes that keep their points (frozen ones: isFrozen).
   bool contains(int64_t id) const { return keyframes_.count(id) != 0; }
+  bool isFrozen(int64_t id) const { return frozen_.count(id) != 0; }
   // Pose of a keyframe in the map; throws InputError for an unknown id.
   const Eigen::Isometry3d& pose(int64_t id) const;
   // The points kept for a keyframe (camera frame); throws InputError for an
@@ -124,6 +136,8 @@ class VoxelMap {
   // Points of the keyframes now in the map that lie outside the region.
   size_t pointsOutsideRegion() const { return points_outside_region_; }
   size_t totalEvictedKeyframes() const { return total_evicted_keyframes_; }
+  size_t frozenKeyframeCount() const { return frozen_.size(); }
+  size_t totalRefusedFrozen() const { return total_refused_frozen_; }
 
   const VoxelMapOptions& options() const { return options_; }
   // What exportCloud() leaves out (VoxelMapOptions::min_points_per_voxel);
@@ -201,6 +215,7 @@ class VoxelMap {
   VoxelMapUpdate insert(int64_t id, uint64_t sequence, const Eigen::Isometry3d& camera_to_world,
                         const Shared<KeyframePoints>& points);
   void evictOldest(VoxelMapUpdate* update);
+  void freezeOldest(VoxelMapUpdate* update);
   Eigen::Vector3d voxelCentre(uint64_t key) const;
 
   VoxelMapOptions options_;
@@ -214,6 +229,8 @@ class VoxelMap {
   size_t total_dropped_over_budget_ = 0;
   size_t points_outside_region_ = 0;
   size_t total_evicted_keyframes_ = 0;
+  size_t total_refused_frozen_ = 0;
+  std::unordered_set<int64_t> frozen_;  // ids whose points stay in the voxels, released
 };
 
 // Empty when `camera_to_world` is a finite rigid transform; otherwise why not.

@@ -46,6 +46,7 @@
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "amhmvs_mapping/ros/image_rectifier.h"
 #include "amhmvs_mapping/ros/mapping_config.h"
+#include "amhmvs_mapping/ros/sequence_gaps.h"
 #include "amhmvs_mapping/ros/tf_frame_filter.h"
 
 namespace amhmvs_mapping {
@@ -67,11 +68,16 @@ struct InputStats {
   uint64_t dropped_bad_stamp = 0;  // zero (header not filled) or more than a day ahead of the clock
   uint64_t dropped_missing_tf = 0;
   uint64_t dropped_bad_pose_update = 0;
+  // Messages of an input topic that its publisher numbered (header.seq) but
+  // that never reached our callback: the subscriber queue (sync_queue_size)
+  // overflowed while the callbacks waited for the CPU, or the connection lost them.
+  uint64_t dropped_before_subscriber = 0;
   uint64_t clock_jumps_back = 0;  // the ROS clock went back (a bag played again): stamps start again
 
   uint64_t droppedTotal() const {
     return dropped_encoding + dropped_bad_pose + dropped_bad_camera_info + dropped_bad_keyframe +
-           dropped_stamp_backwards + dropped_bad_stamp + dropped_missing_tf + dropped_bad_pose_update;
+           dropped_stamp_backwards + dropped_bad_stamp + dropped_missing_tf + dropped_bad_pose_update +
+           dropped_before_subscriber;
   }
 };
 
@@ -113,6 +119,11 @@ class MappingInputs {
   // Messages that reached each input topic's subscriber (before any
   // synchronisation), by resolved topic name, in subscription order.
   std::vector<std::pair<std::string, uint64_t>> messagesReceived() const;
+  // Messages lost before each topic's subscriber: gaps in the publisher's
+  // numbering (header.seq; roscpp and rospy publishers number every message,
+  // rosbag play included). A numbering that goes back (a new publisher) starts
+  // again; one publisher per topic is assumed. Same order as messagesReceived().
+  std::vector<std::pair<std::string, uint64_t>> messagesLost() const;
   // Images that reached the subscriber but became no frame (pose, odometry
   // and tf modes): never matched by the synchroniser (or still held by it),
   // or dropped waiting for their transform (counted under missing_tf too).
@@ -160,22 +171,23 @@ class MappingInputs {
     std::function<uint32_t()> publishers;
     ros::WallTime last_arrival;  // zero: never
     uint64_t messages = 0;       // arrivals so far
+    SequenceGaps gaps;           // messages lost before the subscriber
   };
   // Registers a topic (constructor); returns its index for noteArrival().
   size_t watch(const std::string& name, std::function<uint32_t()> publishers);
-  void noteArrival(size_t topic);
+  void noteArrival(size_t topic, uint32_t seq);
   // watch() for a subscriber filter, its arrivals noted before synchronisation.
   template <class Filter>
   size_t watchFilter(Filter& filter) {
     const size_t topic = watch(filter.getTopic(), [&filter] { return filter.getSubscriber().getNumPublishers(); });
     filter.registerCallback(boost::function<void(const typename Filter::MConstPtr&)>(
-        [this, topic](const typename Filter::MConstPtr&) { noteArrival(topic); }));
+        [this, topic](const typename Filter::MConstPtr& message) { noteArrival(topic, message->header.seq); }));
     return topic;
   }
   void noteSynchronised();  // a synchronised frame (or a keyframe message) came
   void count(uint64_t InputStats::*counter);
   // Counts a dropped input and reports it (throttled per reason).
-  void drop(uint64_t InputStats::*counter, const std::string& detail);
+  void drop(uint64_t InputStats::*counter, const std::string& detail, uint64_t count = 1);
 
   bool endedLocked(double silence_s) const;  // stats_mutex_ held
   MappingConfig config_;

@@ -361,7 +361,7 @@ TEST(VoxelMap, BoundsEvictOldestKeyframesAndDropTheRest) {
   options.leaf_size = 0.1;
   options.max_voxels = 1000;
   options.max_points = 2000;
-  options.max_keyframes = 5;
+  options.reposable_keyframes = 5;
   VoxelMap map(options);
   // Keyframes of 400 points in their own voxels: 2 fit in 1000 voxels.
   for (int64_t id = 0; id < 6; ++id) {
@@ -369,27 +369,95 @@ TEST(VoxelMap, BoundsEvictOldestKeyframesAndDropTheRest) {
         map.addKeyframe(id, pose(Eigen::Vector3d(100.0 * id, 0, 0)), gridPoints(20, 0.3f));
     if (id < 2) EXPECT_TRUE(update.evicted_keyframes.empty());
     if (id >= 2) EXPECT_EQ(update.evicted_keyframes, std::vector<int64_t>{id - 2});
+    EXPECT_TRUE(update.frozen_keyframes.empty());
     EXPECT_LE(map.voxelCount(), options.max_voxels);
   }
   EXPECT_EQ(map.keyframeIds(), (std::vector<int64_t>{4, 5}));
   EXPECT_EQ(map.totalEvictedKeyframes(), 4u);
 
-  // Points sharing voxels cost no voxel budget; max_keyframes binds.
+  // Points sharing voxels cost no voxel budget; reposable_keyframes binds:
+  // the oldest are frozen, their voxels stay.
   for (int64_t id = 6; id < 12; ++id) {
     map.addKeyframe(id, pose(Eigen::Vector3d(500, 0, 0)), KeyframePoints(1, makePoint(0, 0, 2)));
-    EXPECT_LE(map.keyframeCount(), options.max_keyframes);
+    EXPECT_LE(map.keyframeCount(), options.reposable_keyframes);
   }
   EXPECT_EQ(map.keyframeIds(), (std::vector<int64_t>{7, 8, 9, 10, 11}));
+  EXPECT_EQ(map.frozenKeyframeCount(), 3u);  // 4, 5, 6
+  EXPECT_EQ(map.voxelCount(), 800u);  // the single points fall in a voxel of 5
+  EXPECT_EQ(map.storedPointCount(), 5u);
 
-  // A keyframe that alone exceeds the budget keeps what fits.
+  // A keyframe over the voxel budget: the oldest is frozen to make room for
+  // it among the reposable ones, the others are removed (their voxel stays:
+  // the frozen ones share it), and it keeps what fits beside the frozen voxels.
   const VoxelMapUpdate big =
       map.addKeyframe(20, pose(Eigen::Vector3d(-100, 0, 0)), gridPoints(40, 0.3f));  // 1600
+  EXPECT_EQ(big.frozen_keyframes, std::vector<int64_t>{7});
+  EXPECT_EQ(big.evicted_keyframes, (std::vector<int64_t>{8, 9, 10, 11}));
   EXPECT_EQ(map.keyframeIds(), std::vector<int64_t>{20});
-  EXPECT_EQ(big.added_points, 1000u);
-  EXPECT_EQ(big.dropped_over_budget, 600u);
+  EXPECT_EQ(big.added_points, 200u);
+  EXPECT_EQ(big.dropped_over_budget, 1400u);
   EXPECT_EQ(map.voxelCount(), 1000u);
+  EXPECT_EQ(map.totalDroppedOverBudget(), 1400u);
   EXPECT_GT(map.memoryBytes(), 1000 * sizeof(KeyframePoint));
   expectAllFinite(map.exportCloud());
+
+  // Alone over the budget in an empty map: the first 1000 voxels' points.
+  VoxelMap fresh(options);
+  const VoxelMapUpdate alone = fresh.addKeyframe(1, pose(Eigen::Vector3d(-100, 0, 0)), gridPoints(40, 0.3f));
+  EXPECT_EQ(alone.added_points, 1000u);
+  EXPECT_EQ(alone.dropped_over_budget, 600u);
+}
+
+// A place revisited for ever: the voxels stay the same, the points kept for
+// re-posing stop growing once the oldest keyframes are frozen, and a frozen
+// keyframe keeps its share of the voxels but can no longer move or be replaced.
+TEST(VoxelMap, FrozenKeyframesStayInTheVoxelsAndKeepTheMemoryFlat) {
+  VoxelMapOptions options;
+  options.reposable_keyframes = 3;
+  VoxelMap map(options);
+  const Shared<KeyframePoints> points(gridPoints(4, 0.5f));  // 16 voxels
+  size_t memory_at_10 = 0;
+  for (int64_t id = 0; id < 200; ++id) {
+    const VoxelMapUpdate update = map.addKeyframe(id, Eigen::Isometry3d::Identity(), points);
+    EXPECT_EQ(update.frozen_keyframes, id >= 3 ? std::vector<int64_t>{id - 3} : std::vector<int64_t>{});
+    EXPECT_EQ(map.voxelCount(), 16u);
+    EXPECT_EQ(map.storedPointCount(), 16u * std::min<int64_t>(id + 1, 3));
+    if (id == 9) memory_at_10 = map.memoryBytes();
+  }
+  // Only the frozen ids' set grows (tens of bytes a keyframe).
+  EXPECT_LT(map.memoryBytes(), memory_at_10 + 190 * 64);
+  EXPECT_EQ(map.keyframeIds(), (std::vector<int64_t>{197, 198, 199}));
+  EXPECT_EQ(map.frozenKeyframeCount(), 197u);
+  const PointCloud cloud = map.exportCloud();
+  ASSERT_EQ(cloud.size(), 16u);
+  for (uint32_t count : cloud.counts) EXPECT_EQ(count, 200u);  // every keyframe's points stay
+
+  EXPECT_TRUE(map.isFrozen(5));
+  EXPECT_FALSE(map.contains(5));
+  EXPECT_INPUT_ERROR(map.updatePose(5, pose(Eigen::Vector3d(1, 0, 0))), "keyframe 5", "frozen");
+  EXPECT_INPUT_ERROR(map.removeKeyframe(5), "keyframe 5", "frozen");
+  const VoxelMapUpdate again = map.addKeyframe(5, pose(Eigen::Vector3d(3, 0, 0)), points);
+  EXPECT_TRUE(again.refused_frozen);
+  EXPECT_EQ(again.added_points, 0u);
+  EXPECT_EQ(map.voxelCount(), 16u);
+  EXPECT_EQ(map.totalRefusedFrozen(), 1u);
+
+  // The reposable ones still move and leave exactly: what stays is the frozen 197.
+  map.removeKeyframe(199);
+  map.removeKeyframe(198);
+  map.updatePose(197, pose(Eigen::Vector3d(10, 0, 0)));
+  const PointCloud moved = map.exportCloud();
+  ASSERT_EQ(moved.size(), 32u);
+  for (uint32_t count : moved.counts) EXPECT_TRUE(count == 197u || count == 1u) << count;
+
+  // max_points freezes too: 40 points keep two keyframes of 16.
+  options.reposable_keyframes = 100;
+  options.max_points = 40;
+  VoxelMap few_points(options);
+  for (int64_t id = 0; id < 5; ++id) few_points.addKeyframe(id, Eigen::Isometry3d::Identity(), points);
+  EXPECT_EQ(few_points.keyframeIds(), (std::vector<int64_t>{3, 4}));
+  EXPECT_EQ(few_points.frozenKeyframeCount(), 3u);
+  EXPECT_EQ(few_points.storedPointCount(), 32u);
 }
 
 // The map keeps a keyframe's points for re-posing: the caller's buffer
