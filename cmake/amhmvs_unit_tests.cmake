@@ -6,7 +6,7 @@
 # AMHMVS_UNIT_TEST_LAYERS: the folders of test/unit, lowest layer first.
 # amhmvs_add_unit_tests(catkin|ctest): defines every program (catkin_add_gtest,
 # or add_executable with add_test) and the target amhmvs_unit_tests that
-# builds them all.
+# builds them all, with AMHMVS_EXTRA_UNIT_TEST_PROGRAMS (defined before).
 
 set(AMHMVS_UNIT_TEST_LAYERS core io mvs simulation mapping eval tools)
 
@@ -40,6 +40,8 @@ macro(amhmvs_add_unit_tests registry)
     add_dependencies(${program} amhmvs_depth amhmvs_synthetic ${AMHMVS_MAPPING_TOOLS} ${AMHMVS_STUDY_TOOLS})
     list(APPEND amhmvs_unit_test_programs ${program})
   endforeach()
+  # Programs defined by the caller (AMHMVS_EXTRA_UNIT_TEST_PROGRAMS) run with them.
+  list(APPEND amhmvs_unit_test_programs ${AMHMVS_EXTRA_UNIT_TEST_PROGRAMS})
   add_custom_target(amhmvs_unit_tests DEPENDS ${amhmvs_unit_test_programs})
   # Their paths, one per line, for scripts/run_tests.sh.
   list(TRANSFORM amhmvs_unit_test_programs REPLACE "(.+)" "$<TARGET_FILE:\\1>")

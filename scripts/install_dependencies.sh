@@ -35,7 +35,7 @@ packages=(
   libeigen3-dev libopencv-dev libopencv-contrib-dev libceres-dev libgtest-dev googletest python3-numpy python3-opencv
   rviz xvfb imagemagick libgl1-mesa-dri python3-tf2-msgs python3-diagnostic-msgs python3-rosnode python3-yaml
 )
-test_packages=(colmap clang libclang-rt-14-dev libomp-14-dev llvm-14 procps)
+test_packages=(colmap clang libclang-rt-14-dev libomp-14-dev llvm-14 procps libopen3d-dev)
 case ${1:-} in
   --demo) ;;
   "") packages+=("${test_packages[@]}") ;;

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Writes a copy of an rviz config whose 3D view looks at the demo's synthetic
 room (x 0..6, y 0..5 m, from above the camera path): the shipped config stays
-the one source of displays, the demo only moves the camera.
+the one source of displays, the demo only moves the camera (into the room's
+own z-up world frame).
 
 usage: room_view_rviz_config.py IN.rviz OUT.rviz
 """
@@ -19,7 +20,9 @@ def main():
         sys.exit(__doc__)
     with open(sys.argv[1]) as f:
         config = yaml.safe_load(f)
-    config.setdefault("Visualization Manager", {}).setdefault("Views", {})["Current"] = ROOM_VIEW
+    manager = config.setdefault("Visualization Manager", {})
+    manager.setdefault("Global Options", {})["Fixed Frame"] = "world"
+    manager.setdefault("Views", {})["Current"] = ROOM_VIEW
     with open(sys.argv[2], "w") as f:
         yaml.safe_dump(config, f, sort_keys=False)
 

@@ -232,7 +232,7 @@ all_unit_results=("${unit_results[@]}")
 # change, the clock jumps back); the fountain and temple bags again on the shipped
 # config/mapping.yaml (nothing tuned: a depth image for every keyframe, nothing
 # dropped) and the redkitchen bag on it (real Kinect video, depth against the
-# Kinect's), depth_image_proc/point_cloud_xyz + the 16UC1 output on ours,
+# Kinect's; at KinectFusion's poses and at a real odometry's), depth_image_proc/point_cloud_xyz + the 16UC1 output on ours,
 # the fountain bag as JPEG through the `compressed` transport, and a part of
 # it played by mapping.launch's rate/start/duration (with the rviz view frame).
 echo "== ROS tests (message conversions; rostest) =="
@@ -248,6 +248,7 @@ set -e
 # The rostests: name, test file, launch arguments (the bags and the realism
 # folder are written below when the fountain bag is there).
 kitchen_bag=$build/bags/redkitchen_7scenes_40.bag
+kitchen_odometry_bag=$build/bags/redkitchen_7scenes_40_odometry.bag
 realism_dir=$build/realism_room8
 realism_bag=$build/bags/realism_room8.bag
 ros_tests=(
@@ -266,6 +267,7 @@ ros_tests=(
   "fountain_shipped_defaults replay_fountain.test defaults:=true shutdown_map:=$ros_results/fountain_shipped_defaults_shutdown_map.ply"
   "temple_shipped_defaults replay_map.test scene:=temple defaults:=true"
   "redkitchen_shipped_defaults replay_map.test scene:=redkitchen defaults:=true bag:=$kitchen_bag"
+  "redkitchen_odometry_shipped_defaults replay_map.test scene:=redkitchen defaults:=true poses:=odometry bag:=$kitchen_odometry_bag"
   "saturated_input saturated_input.test bag:=$kitchen_bag"
   "realism_tracker_settings replay_map.test scene:=realism bag:=$realism_bag truth_dir:=$realism_dir"
   "depth_interop depth_interop.test"
@@ -288,6 +290,12 @@ if [ -f "$bag" ]; then
     mkdir -p "$build/bags"
     if [ -d "$data/redkitchen_7scenes" ]; then
       python3 "$here/scripts/seven_scenes_to_bag.py" "$data/redkitchen_7scenes" "$kitchen_bag"
+      # The same frames at a real tracker's poses: the odometry over every
+      # frame file up to the bag's last (0-78), as a tracker sees them.
+      "$build/devel/lib/amhmvs_mapping/amhmvs_odometry" "$data/redkitchen_7scenes" "$build/bags/redkitchen_odometry_79.txt" \
+        --count 79 --report "$build/bags/redkitchen_odometry_79.json"
+      python3 "$here/scripts/seven_scenes_to_bag.py" "$data/redkitchen_7scenes" "$kitchen_odometry_bag" \
+        --trajectory "$build/bags/redkitchen_odometry_79.txt"
     fi
     "$build/devel/lib/amhmvs_mapping/amhmvs_synthetic" "$realism_dir" --scene room --views 8 --realism default \
       > "$build/realism_room8.log" 2>&1 || { tail -5 "$build/realism_room8.log"; return 1; }

@@ -9,6 +9,7 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/core/text.h"
+#include "amhmvs_mapping/mapping/view_anchor.h"
 
 namespace amhmvs {
 namespace {
@@ -79,6 +80,10 @@ const Table<NodeOptions>& nodeTable() {
       advanced(textField<O>("view_frame", &O::view_frame,
                             "static tf child of fixed_frame where the first keyframe with depth looks (the rviz "
                             "config's view target); empty: not published")),
+      advanced(textField<O>("view_up", &O::view_up,
+                            "the world direction view_frame's z takes (up in rviz): auto (world z when the first "
+                            "keyframe's camera is within 70 deg of upright in it, else the world axis nearest its "
+                            "up: a world that is a camera frame) or X,Y,Z")),
       advanced(numberField("tf_timeout", &O::tf_timeout,
                            "tf mode: wall seconds a frame waits for its transform (no callback blocks)")),
       advanced(numberField("sync_queue_size", &O::sync_queue_size, "approximate-time synchroniser queue")),
@@ -509,6 +514,8 @@ std::string NodeOptions::validate() const {
   require(input_mode == "pose" || input_mode == "odometry" || input_mode == "tf" || input_mode == "keyframe",
           "input_mode must be pose, odometry, tf or keyframe");
   require(!fixed_frame.empty(), "fixed_frame must not be empty");
+  const std::string view_up_problem = validateViewUp(view_up);
+  if (!view_up_problem.empty()) why << view_up_problem << "\n";
   require(tf_timeout >= 0, "tf_timeout must be >= 0");
   require(sync_queue_size >= 1, "sync_queue_size must be >= 1");
   require(sync_max_interval >= 0, "sync_max_interval must be >= 0");

@@ -80,11 +80,18 @@ void MappingOutputs::publishViewFrame(const amhmvs::KeyframeResult& result, cons
   view.transform.translation.x = anchor.x();
   view.transform.translation.y = anchor.y();
   view.transform.translation.z = anchor.z();
-  view.transform.rotation.w = 1;  // the fixed frame's axes: rviz's orbit view keeps its own up
+  // rviz's orbit view keeps the fixed frame's z up: the view frame's z is the world's up.
+  const Eigen::Vector3d up = amhmvs::viewUp(config_.node.view_up, amhmvs::cameraToWorld(result.camera).linear());
+  const Eigen::Quaterniond orientation = amhmvs::viewOrientation(up);
+  view.transform.rotation.x = orientation.x();
+  view.transform.rotation.y = orientation.y();
+  view.transform.rotation.z = orientation.z();
+  view.transform.rotation.w = orientation.w();
   view_broadcaster_->sendTransform(view);
   view_published_ = true;
-  ROS_INFO("view frame %s at (%.2f, %.2f, %.2f) in %s, where keyframe %ld looks", config_.node.view_frame.c_str(),
-           anchor.x(), anchor.y(), anchor.z(), config_.node.fixed_frame.c_str(), static_cast<long>(result.id));
+  ROS_INFO("view frame %s at (%.2f, %.2f, %.2f) in %s, where keyframe %ld looks, its z up along (%.2f, %.2f, %.2f)",
+           config_.node.view_frame.c_str(), anchor.x(), anchor.y(), anchor.z(), config_.node.fixed_frame.c_str(),
+           static_cast<long>(result.id), up.x(), up.y(), up.z());
 }
 
 void MappingOutputs::publishRefinedDepths(const amhmvs::KeyframeResult& result, const KeyframeHeaders& headers) {

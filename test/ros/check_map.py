@@ -10,7 +10,8 @@ empty, and (with ~bbox) that every map point lies in the box widened by
 stamps, e.g. a bag's /camera/depth_gt), each keyframe's last depth image is
 compared with the truth of its stamp where both have depth: the pooled median
 relative error at most ~max_median_error, at least ~min_within_10pct percent
-within 10 %. With ~min_counters (a dict), each named diagnostics counter is
+within 10 %, and at least ~min_truth_within_5pct percent of the truth's valid
+pixels (on the depth images' grid) within 5 % (missing = wrong). With ~min_counters (a dict), each named diagnostics counter is
 at least its value; with ~max_counters, present and at most its value. With
 ~truth_dense_dir (an MVSNet dense folder with the true cameras in cams_gt/
 and z-depth in depth_gt/, as amhmvs_synthetic writes), the last map is judged against the true surface: at least
@@ -76,6 +77,7 @@ class MapReplay(unittest.TestCase):
         cls.truth = watch.record(cls.truth_topic, Image) if cls.truth_topic else []
         cls.max_median_error = rospy.get_param('~max_median_error', 1.0)
         cls.min_within_10pct = rospy.get_param('~min_within_10pct', 0.0)
+        cls.min_truth_within_5pct = rospy.get_param('~min_truth_within_5pct', 0.0)
         cls.min_counters = rospy.get_param('~min_counters', {})
         cls.max_counters = rospy.get_param('~max_counters', {})
         cls.truth_dense_dir = rospy.get_param('~truth_dense_dir', '')
@@ -166,19 +168,25 @@ class MapReplay(unittest.TestCase):
             self.skipTest('no ~truth_topic')
         truth = {m.header.stamp: m for m in self.truth}
         latest = {m.header.stamp: m for m in self.depth}  # a refined depth map replaces the first
-        errors = []
+        errors, truth_pixels = [], 0
         for stamp, depth in latest.items():
             self.assertIn(stamp, truth)
-            errors += relative_errors(depth, truth[stamp])
+            image_errors, image_truth_pixels = relative_errors(depth, truth[stamp])
+            errors += image_errors
+            truth_pixels += image_truth_pixels
         errors.sort()
         self.assertGreater(len(errors), 1000)
         median = errors[len(errors) // 2]
         within = 100.0 * sum(1 for e in errors if e <= 0.10) / len(errors)
+        within_5pct = sum(1 for e in errors if e <= 0.05)
+        truth_within_5pct = 100.0 * within_5pct / truth_pixels
         rospy.loginfo('check_map: %d depth images vs %s: median relative error %.2f %%, %.1f %% within 5 %%, '
-                      '%.1f %% within 10 %% over %d pixels', len(latest), self.truth_topic, 100 * median,
-                      100.0 * sum(1 for e in errors if e <= 0.05) / len(errors), within, len(errors))
+                      '%.1f %% within 10 %% over %d pixels; %.1f %% of the truth\'s %d pixels within 5 %%',
+                      len(latest), self.truth_topic, 100 * median, 100.0 * within_5pct / len(errors), within,
+                      len(errors), truth_within_5pct, truth_pixels)
         self.assertLessEqual(median, self.max_median_error)
         self.assertGreaterEqual(within, self.min_within_10pct)
+        self.assertGreaterEqual(truth_within_5pct, self.min_truth_within_5pct)
 
     def test_06_counters(self):
         if not self.min_counters and not self.max_counters:
@@ -309,19 +317,23 @@ class SurfaceIndex:
 
 
 def relative_errors(depth, truth):
-    """|depth - truth| / truth where both are finite and > 0; the truth
-    sampled at the nearest pixel centre when its size differs."""
+    """(|depth - truth| / truth where both are finite and > 0, the number of
+    pixels where the truth is); the truth sampled at the nearest pixel centre
+    when its size differs."""
     values = struct.unpack('<%df' % (depth.width * depth.height), bytes(depth.data))
     reference = struct.unpack('<%df' % (truth.width * truth.height), bytes(truth.data))
-    errors = []
+    errors, truth_pixels = [], 0
     for v in range(depth.height):
         tv = min(int((v + 0.5) * truth.height / depth.height), truth.height - 1)
         for u in range(depth.width):
             d = values[v * depth.width + u]
             t = reference[tv * truth.width + min(int((u + 0.5) * truth.width / depth.width), truth.width - 1)]
-            if d > 0 and t > 0 and math.isfinite(d) and math.isfinite(t):
+            if not (t > 0 and math.isfinite(t)):
+                continue
+            truth_pixels += 1
+            if d > 0 and math.isfinite(d):
                 errors.append(abs(d - t) / t)
-    return errors
+    return errors, truth_pixels
 
 
 if __name__ == '__main__':

@@ -1,21 +1,27 @@
 #!/usr/bin/env python3
 """rostest checker (replay_part.test): mapping.launch's bag arguments play
 only [start, start + duration] of the bag at `rate` times its speed, and the
-nodelet publishes the view frame that the shipped rviz config's view targets;
-demo.launch, replay_bag.launch and mapping.launch pass rate, start and
-duration to rosbag play (-r, -s, -u), and rviz gets the fixed frame."""
+nodelet publishes the view frame that the shipped rviz config uses as its
+fixed frame and view target (z the world's up); demo.launch,
+replay_bag.launch and mapping.launch pass rate, start and duration to rosbag
+play (-r, -s, -u), and rviz gets the view frame or the fixed frame asked for."""
 import math
+import os
 import subprocess
 import sys
 import time
 import unittest
 
+import numpy as np
 import rosbag
 import rospy
 import rostest
 import tf2_ros
 import yaml
 from sensor_msgs.msg import CameraInfo
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'scripts'))
+from dense_folder_to_bag import quaternion_matrix  # noqa: E402  (the bag writer's own conversion)
 
 
 def node_command(node, launch_file, *args):
@@ -60,6 +66,8 @@ class ReplayPart(unittest.TestCase):
             view = yaml.safe_load(f)['Visualization Manager']['Views']['Current']
         view_frame = rospy.get_param('/amhmvs/mapping/view_frame')
         self.assertEqual(view['Target Frame'], view_frame)
+        with open(rospy.get_param('~rviz_config')) as f:
+            self.assertEqual(yaml.safe_load(f)['Visualization Manager']['Global Options']['Fixed Frame'], view_frame)
         buffer = tf2_ros.Buffer()
         self.listener = tf2_ros.TransformListener(buffer)  # kept alive for the test
         transform = None
@@ -71,7 +79,12 @@ class ReplayPart(unittest.TestCase):
         self.assertIsNotNone(transform, 'no %s frame in tf' % view_frame)
         t = transform.transform.translation
         self.assertTrue(all(math.isfinite(v) for v in (t.x, t.y, t.z)))
-        rospy.loginfo('check_replay_part: %s at (%.2f, %.2f, %.2f)', view_frame, t.x, t.y, t.z)
+        # Its z is the world's up (view_up auto): world z or a signed world axis.
+        up = np.array(quaternion_matrix(transform.transform.rotation))[:, 2]
+        self.assertAlmostEqual(float(np.linalg.norm(up)), 1.0, places=6)
+        self.assertAlmostEqual(float(np.max(np.abs(up))), 1.0, places=6, msg='up %s is not a world axis' % up)
+        rospy.loginfo('check_replay_part: %s at (%.2f, %.2f, %.2f), z along (%.2f, %.2f, %.2f)', view_frame,
+                      t.x, t.y, t.z, *up)
 
     def test_2_bag_part_arguments_reach_rosbag_play(self):
         # demo.launch, replay_bag.launch and mapping.launch pass rate, start and duration to rosbag play.
@@ -87,10 +100,11 @@ class ReplayPart(unittest.TestCase):
         nodes = subprocess.check_output(['roslaunch', '--nodes', 'amhmvs_mapping', 'mapping.launch'], text=True)
         self.assertNotIn('/player', nodes)  # no bag: nothing played
 
-    def test_3_rviz_gets_the_fixed_frame(self):
-        command = node_command('/rviz', 'mapping.launch', 'rviz:=true', 'fixed_frame:=odom')
-        self.assertIn('-f', command)
-        self.assertEqual(command[command.index('-f') + 1], 'odom')
+    def test_3_rviz_gets_the_view_frame_or_the_fixed_frame_asked_for(self):
+        for extra, frame in (([], 'amhmvs_view'), (['rviz_fixed_frame:=odom'], 'odom')):
+            command = node_command('/rviz', 'mapping.launch', 'rviz:=true', *extra)
+            self.assertIn('-f', command)
+            self.assertEqual(command[command.index('-f') + 1], frame)
 
 
 if __name__ == '__main__':

@@ -27,6 +27,7 @@ struct NodeOptions {
   std::string image_transport = "raw";
   std::string fixed_frame = "world";
   std::string view_frame = "amhmvs_view";
+  std::string view_up = "auto";  // view_anchor.h: auto or X,Y,Z
   double tf_timeout = 0.1;
   int sync_queue_size = 10;
   double sync_max_interval = 0.05;

@@ -12,6 +12,7 @@
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mapping/marching_cubes.h"
 #include "amhmvs_mapping/mapping/tsdf_map.h"
+#include "mapping/tsdf_scenes.h"
 
 namespace amhmvs {
 namespace {
@@ -123,44 +124,8 @@ TEST(MarchingCubes, SphereIsClosedOnTheSurfaceFacingOutwards) {
   for (const Eigen::Vector3f& p : mesh.vertices.points) EXPECT_NEAR((p - centre).norm(), radius, 0.05);
 }
 
-// A camera at `centre` looking at `target` (y down in the image, world z up).
-PinholeCamera lookAt(const Eigen::Vector3d& centre, const Eigen::Vector3d& target, int width = 160, int height = 120) {
-  PinholeCamera camera;
-  camera.width = width;
-  camera.height = height;
-  camera.fx = camera.fy = 0.8 * width;
-  camera.cx = 0.5 * (width - 1);
-  camera.cy = 0.5 * (height - 1);
-  const Eigen::Vector3d forward = (target - centre).normalized();
-  Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ());
-  if (right.norm() < 1e-6) right = Eigen::Vector3d::UnitX();
-  right.normalize();
-  const Eigen::Vector3d down = forward.cross(right);
-  Eigen::Matrix3d camera_to_world;
-  camera_to_world << right, down, forward;
-  camera.R = camera_to_world.transpose();
-  camera.t = -camera.R * centre;
-  return camera;
-}
-
-// Exact z-depth of a sphere seen by `camera` (NaN where the ray misses).
-SurfaceDepth sphereDepth(const PinholeCamera& camera, const Eigen::Vector3d& centre, double radius) {
-  SurfaceDepth depth;
-  depth.camera = camera;
-  depth.depth = ImageF(camera.width, camera.height, 1, NAN);
-  const Eigen::Vector3d eye = camera.center();
-  for (int y = 0; y < camera.height; ++y)
-    for (int x = 0; x < camera.width; ++x) {
-      const Eigen::Vector3d ray_camera = camera.backproject(x, y, 1);
-      const Eigen::Vector3d ray = (camera.R.transpose() * ray_camera).normalized();
-      const double b = ray.dot(eye - centre), c = (eye - centre).squaredNorm() - radius * radius;
-      const double disc = b * b - c;
-      if (disc < 0) continue;
-      const double s = -b - std::sqrt(disc);
-      depth.depth.at(x, y) = static_cast<float>(s / ray_camera.norm());
-    }
-  return depth;
-}
+using test::lookAt;
+using test::sphereDepth;
 
 Eigen::Isometry3d poseOf(const PinholeCamera& camera) { return cameraToWorld(camera); }
 
