@@ -74,7 +74,8 @@ if [ "$found" != "$workspace/install/share/amhmvs_mapping" ]; then
 fi
 help=$(rosrun amhmvs_mapping amhmvs_depth --help) || { echo "amhmvs_depth --help failed"; exit 1; }
 grep -q "^Usage: amhmvs_depth" <<< "$help" || { echo "no usage line in: $help"; exit 1; }
-echo "$help" | head -1
+# Not `echo | head -1`: head closes the pipe early and pipefail fails on the SIGPIPE.
+echo "${help%%$'\n'*}"
 
 bag=$data/bags/strecha_fountain_x0.25.bag
 if [ ! -f "$bag" ]; then
