@@ -8,6 +8,7 @@
 #include <sstream>
 #include <string>
 
+#include "amhmvs_mapping/mapping/mapping_parameters.h"
 #include "amhmvs_mapping/mapping/online_mapper.h"
 #include "amhmvs_mapping/mapping/pose_refinement.h"
 #include "amhmvs_mapping/mvs/patchmatch_options.h"
@@ -48,8 +49,10 @@ void expectDocumented(const std::string& section, const std::vector<amhmvs::Opti
   EXPECT_EQ(documented.size(), table.size());
 }
 
+// With the product's defaults (MappingParameters: two scales), not the
+// paper's that PatchMatchOptions keeps.
 TEST(MappingConfigDoc, EveryEstimatorOptionDocumentedWithItsDefault) {
-  expectDocumented("estimator", amhmvs::patchMatchOptionTable());
+  expectDocumented("estimator", amhmvs::patchMatchOptionTable(), amhmvs::MappingParameters().pipeline.estimator);
 }
 
 TEST(MappingConfigDoc, EveryPoseRefinementOptionDocumentedWithItsDefault) {

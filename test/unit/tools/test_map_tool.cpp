@@ -149,8 +149,10 @@ TEST(MapTool, PoseRefinementOptions) {
 
 TEST(MapTool, ParsesTheLowTextureAndNeighbourDepthSwitches) {
   const MapToolOptions defaults = parseMapToolArguments({});
-  EXPECT_EQ(defaults.pipeline.estimator.multiscale_levels, 1);  // the paper's single scale
-  EXPECT_EQ(defaults.pipeline.estimator.multiscale_iterations, 2);
+  // The product's two scales (the paper's single scale is PatchMatchOptions' own default).
+  EXPECT_EQ(defaults.pipeline.estimator.multiscale_levels, 2);
+  EXPECT_EQ(defaults.pipeline.estimator.multiscale_iterations, 1);
+  EXPECT_EQ(PatchMatchOptions().multiscale_levels, 1);
   EXPECT_FALSE(defaults.pipeline.mapper.neighbour_depth.start_from_neighbours);
   EXPECT_FALSE(defaults.pipeline.mapper.neighbour_depth.geometric_refinement);
   const MapToolOptions options = parseMapToolArguments(
