@@ -12,9 +12,9 @@
 //                                           fusion, map, pipeline, replay, pose)
 //                         [--replay N]     keyframes of the memory replay (10000)
 //                         [--map-foreground] the replay updates the voxel map in its own thread
-//                         [--pipeline-multiscale N[,K]] the pipeline's estimator at N scales (1),
-//                                           K iterations at the finer ones (2); 2,1: the
-//                                           setting for real video (README); the replay too
+//                         [--pipeline-multiscale N[,K]] the pipeline's estimator at N scales,
+//                                           K iterations at the finer ones (default: the
+//                                           product's 2,1; 1: the paper's single scale); the replay too
 //
 // Online pipeline tables (MappingPipeline, GPU when usable):
 //   fusion:   fuseDepthMaps (CPU, OpenMP, all cores) of a 640x480 keyframe
@@ -29,8 +29,8 @@
 // the cpu-scaling rows 320x240 at 1, 2, 4 and 8 threads (up to the core count);
 // pose: the pose refinement before stereo (pose_refinement_benchmark.h) and
 //       the map corrections for real trackers (map_correction_benchmark.h).
-// the multiscale rows the coarse-to-fine driver (2 scales) at 640x480 (GPU)
-// and 320x240 (CPU), 4 sources.
+// the multiscale rows the coarse-to-fine driver as the product runs it (2
+// scales, 1 iteration at the finer) at 640x480 (GPU) and 320x240 (CPU), 4 sources.
 // DATA_DIR holds mvsnet/fountain_x0.25, fountain_x0.5, fountain_x1 dense
 // folders with decodable images (see scripts/gpu_machine/prepare_gpu_data.py); rows whose
 // folder is missing are skipped.
@@ -62,6 +62,7 @@
 #include "amhmvs_mapping/simulation/synthetic_scene.h"
 #include "amhmvs_mapping/mapping/depth_map_fuser.h"
 #include "amhmvs_mapping/mapping/fusion.h"
+#include "amhmvs_mapping/mapping/mapping_parameters.h"
 #include "amhmvs_mapping/mapping/mapping_pipeline.h"
 #include "amhmvs_mapping/mvs/depth_estimator.h"
 #include "depth_job.h"
@@ -286,8 +287,9 @@ std::string mapTable(int count) {
 
 // Coarse-to-fine settings of the pipeline table's estimator.
 struct Multiscale {
-  int levels = 1;  // the pipeline's default: the paper's single scale
-  int iterations = PatchMatchOptions().multiscale_iterations;
+  // The product's (MappingParameters: two scales, one iteration at the finer).
+  int levels = MappingParameters().pipeline.estimator.multiscale_levels;
+  int iterations = MappingParameters().pipeline.estimator.multiscale_iterations;
 };
 
 PipelineOptions pipelineOptions(int sources, Multiscale multiscale = Multiscale()) {
@@ -566,10 +568,11 @@ int main(int argc, char** argv) {
       }
     }
     if (wants("multiscale")) {
-      // The coarse-to-fine driver (estimator option multiscale): 2 scales,
-      // the finer one multiscale_iterations (2) from the coarser one's planes.
+      // The coarse-to-fine driver as the product runs it (MappingParameters:
+      // 2 scales, the finer one multiscale_iterations from the coarser one's planes).
       PatchMatchOptions two_scales;
-      two_scales.multiscale_levels = 2;
+      two_scales.multiscale_levels = MappingParameters().pipeline.estimator.multiscale_levels;
+      two_scales.multiscale_iterations = MappingParameters().pipeline.estimator.multiscale_iterations;
       if (gpu) {
         const SyntheticProblem vga = makeSyntheticProblem(640, 480, 4);
         rows.push_back(measure("synthetic, 2 scales", vga.problem, Backend::kCuda, 6, runs, 0, two_scales));
