@@ -1,21 +1,28 @@
 #!/usr/bin/env python3
-"""The soak's monitor (soak.launch): every 10 s of wall time a row of the
-nodelet's diagnostics and its resident memory in OUT/soak.csv; every
-repose_every_s a loop-closure update of the three newest keyframes (their
-recorded pose moved 5 mm); every reset_every_s a ~reset; after `minutes` a
-summary (OUT/summary.txt: memory and per-keyframe time after warm-up, the
-store and map against their bounds) and the end of the launch."""
+"""The soak's monitor (soak.launch). It plays the SLAM system: each played
+frame (image, camera info, pose) becomes an amhmvs_mapping/Keyframe with its
+own increasing id, so that it knows every keyframe's id and pose; every
+repose_every_s it sends a loop-closure update of the 100 newest keyframes
+(their pose moved 5 mm); every reset_every_s a ~reset. Every 10 s of wall time a row of the nodelet's diagnostics and its
+resident memory goes to OUT/soak.csv; after `minutes` a summary
+(OUT/summary.txt: memory and per-keyframe time after warm-up, the store and
+map against their bounds) and the end of the launch."""
+import collections
+import copy
 import csv
 import os
 import statistics
 import sys
+import threading
 import time
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray
+import message_filters
 from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import CameraInfo, Image
 from std_srvs.srv import Trigger
 
-from amhmvs_mapping.msg import KeyframePose, KeyframePoses
+from amhmvs_mapping.msg import Keyframe, KeyframePose, KeyframePoses
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'ros'))
 from node_watch import rss_mb  # noqa: E402 (beside the rostests' checkers)
@@ -24,6 +31,7 @@ COLUMNS = ['wall_s', 'rss_mb', 'keyframes_received', 'depth_maps', 'stored_keyfr
            'dropped', 'clock_jumps_back', 'pose_updates_applied', 'pose_updates_not_stored', 'resets',
            'last keyframe ms', 'map_memory_mib', 'map_points_kept', 'surface_blocks', 'map_keyframes_frozen']
 DIAGNOSTICS_AT_END = COLUMNS[13:]  # straight from the diagnostics, after the derived columns
+REPOSED = 100  # keyframes moved by each update: more than the store keeps (store/max_keyframes 50)
 WARM_UP_S = 300  # memory and times are compared after the first five minutes
 
 
@@ -35,12 +43,29 @@ class Monitor:
         self.reset_every = float(rospy.get_param('~reset_every_s'))
         self.repose_every = float(rospy.get_param('~repose_every_s'))
         self.diagnostics = {}
-        self.poses = []  # every /camera/pose as played: keyframes are numbered in arrival order
         self.resets = 0
+        self.next_id = 0
+        self.sent = collections.OrderedDict()  # keyframe id -> pose, the newest REPOSED
+        self.sent_lock = threading.Lock()  # on_frame runs in a subscriber's thread
+        ns = self.node.rsplit('/', 1)[0]
+        self.keyframe_pub = rospy.Publisher('/keyframe', Keyframe, queue_size=20)
+        self.pose_pub = rospy.Publisher(ns + '/keyframe_poses', KeyframePoses, queue_size=5)
         rospy.Subscriber('/diagnostics', DiagnosticArray, self.on_diagnostics)
-        rospy.Subscriber('/camera/pose', PoseStamped, lambda m: self.poses.append(m.pose))
-        self.pose_pub = rospy.Publisher(self.node.rsplit('/', 1)[0] + '/keyframe_poses', KeyframePoses,
-                                        queue_size=5)
+        frame = message_filters.TimeSynchronizer(
+            [message_filters.Subscriber(t, m) for t, m in (('/camera/image_raw', Image),
+                                                          ('/camera/camera_info', CameraInfo),
+                                                          ('/camera/pose', PoseStamped))], 30)
+        frame.registerCallback(self.on_frame)
+
+    def on_frame(self, image, info, pose):
+        msg = Keyframe(header=pose.header, keyframe_id=self.next_id, image=image, camera_info=info,
+                       camera_to_world=pose.pose)
+        with self.sent_lock:
+            self.sent[self.next_id] = pose.pose
+            while len(self.sent) > REPOSED:
+                self.sent.popitem(last=False)
+        self.next_id += 1
+        self.keyframe_pub.publish(msg)
 
     def on_diagnostics(self, msg):
         for status in msg.status:
@@ -54,13 +79,15 @@ class Monitor:
             return float('nan')
 
     def repose(self):
-        sent = int(self.value('keyframes_sent')) if self.diagnostics else 0
+        # As a bundle adjustment after a loop closure would: every recent
+        # keyframe moves (5 mm from its sent pose); those still stored count as
+        # applied, the queued, skipped and evicted ones as not stored.
         update = KeyframePoses()
         update.header.frame_id = 'world'
-        for kf_id in range(max(0, sent - 3), sent):
-            if kf_id >= len(self.poses):
-                continue
-            pose = KeyframePose(keyframe_id=kf_id, camera_to_world=self.poses[kf_id])
+        with self.sent_lock:
+            sent = list(self.sent.items())
+        for kf_id, sent_pose in sent:
+            pose = KeyframePose(keyframe_id=kf_id, camera_to_world=copy.deepcopy(sent_pose))
             pose.camera_to_world.position.x += 0.005
             update.poses.append(pose)
         if update.poses:
@@ -70,7 +97,6 @@ class Monitor:
         rospy.wait_for_service(self.node + '/reset', timeout=10)
         rospy.ServiceProxy(self.node + '/reset', Trigger)()
         self.resets += 1
-        self.poses = []  # numbering starts again
 
     def run(self):
         os.makedirs(self.out, exist_ok=True)
