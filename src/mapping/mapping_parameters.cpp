@@ -387,10 +387,11 @@ Table<PatchMatchOptions> estimatorTable() {
   return table;
 }
 
-Table<PoseRefinementOptions> poseRefinementTable() {
-  Table<PoseRefinementOptions> table = poseRefinementOptionTable();
-  for (OptionField<PoseRefinementOptions>& field : table) {
-    field.alias = field.name == "enabled" ? "pose_refinement" : "pose_refinement_" + field.name;
+// A group switched by "enabled" (--GROUP; its other fields --GROUP_NAME, advanced).
+template <typename Options>
+Table<Options> switchedGroupTable(Table<Options> table, const std::string& group) {
+  for (OptionField<Options>& field : table) {
+    field.alias = field.name == "enabled" ? group : group + "_" + field.name;
     field.advanced = field.name != "enabled";
   }
   return table;
@@ -417,6 +418,7 @@ RefinementOptions& refinementOf(MappingParameters& p) { return p.pipeline.mapper
 TsdfMapOptions& surfaceOf(MappingParameters& p) { return p.pipeline.mapper.surface; }
 ConfidenceOptions& confidenceOf(MappingParameters& p) { return p.pipeline.mapper.confidence; }
 PoseRefinementOptions& poseRefinementOf(MappingParameters& p) { return p.pipeline.mapper.pose_refinement; }
+DirectAlignmentOptions& directAlignmentOf(MappingParameters& p) { return p.pipeline.mapper.direct_alignment; }
 NeighbourDepthOptions& neighbourDepthOf(MappingParameters& p) { return p.pipeline.mapper.neighbour_depth; }
 RollingShutterOptions& rollingShutterOf(MappingParameters& p) { return p.pipeline.mapper.rolling_shutter; }
 TemporalDepthOptions& depthFilterOf(MappingParameters& p) { return p.pipeline.mapper.depth_filter; }
@@ -442,7 +444,10 @@ Table<MappingParameters> buildTable() {
   append(&table, "surface", surfaceOf, surfaceTable());
   append(&table, "refinement", refinementOf, refinementTable());
   append(&table, "confidence", confidenceOf, confidenceTable());
-  append(&table, "pose_refinement", poseRefinementOf, poseRefinementTable());
+  append(&table, "direct_alignment", directAlignmentOf,
+         switchedGroupTable(directAlignmentOptionTable(), "direct_alignment"));
+  append(&table, "pose_refinement", poseRefinementOf,
+         switchedGroupTable(poseRefinementOptionTable(), "pose_refinement"));
   append(&table, "neighbour_depth", neighbourDepthOf, neighbourDepthTable());
   append(&table, "rolling_shutter", rollingShutterOf, rollingShutterTable());
   append(&table, "depth_filter", depthFilterOf, depthFilterTable());
@@ -576,6 +581,8 @@ const std::vector<ParameterGroup>& mappingParameterGroups() {
                   "its mesh, published on `mesh` and `surface`"},
       {"refinement", "Re-estimation of a keyframe when later keyframes give it better sources (idle work)"},
       {"confidence", "Calibrated confidence and the published depth (mapping/depth_confidence.h)"},
+      {"direct_alignment", "Direct alignment before stereo (mapping/direct_alignment.h, not in the paper): each "
+                           "source with a depth map aligned to the keyframe photometrically, coarse to fine"},
       {"pose_refinement", "Pose refinement before stereo (mapping/pose_refinement.h): SIFT features and a bundle "
                           "adjustment with the tracker's noise as the prior; needs OpenCV features2d and Ceres"},
       {"neighbour_depth", "The neighbours' depth maps as the estimator's start (mapping/neighbour_depth.h)"},

@@ -31,6 +31,7 @@ const std::vector<std::pair<const char*, double StageTimes::*>>& stageFields() {
   static const std::vector<std::pair<const char*, double StageTimes::*>> fields = {
       {"queue_wait_ms", &StageTimes::queue_wait_ms}, {"selection_ms", &StageTimes::selection_ms},
       {"depth_range_ms", &StageTimes::depth_range_ms}, {"problem_ms", &StageTimes::problem_ms},
+      {"direct_alignment_ms", &StageTimes::direct_alignment_ms},
       {"pose_refinement_ms", &StageTimes::pose_refinement_ms}, {"estimate_ms", &StageTimes::estimate_ms},
       {"fusion_ms", &StageTimes::fusion_ms},                   {"confidence_ms", &StageTimes::confidence_ms},
       {"map_ms", &StageTimes::map_ms},                         {"depth_filter_ms", &StageTimes::depth_filter_ms},
@@ -194,6 +195,25 @@ std::string poseSourcesJson(const PoseRefinementResult& pose) {
     fields.add("correction_mm", number(1000 * source.correction_m));
     fields.add("correction_deg", number(source.correction_deg));
     fields.add("outcome", quoted(sourcePoseOutcomeName(source.outcome)));
+    list += (list.empty() ? "" : ", ") + fields.object();
+  }
+  return "[" + list + "]";
+}
+
+std::string alignmentSourcesJson(const DirectAlignmentResult& alignment, const std::vector<int64_t>& source_ids) {
+  std::string list;
+  for (size_t s = 0; s < alignment.sources.size(); ++s) {
+    const SourceAlignment& source = alignment.sources[s];
+    JsonFields fields;
+    fields.add("id", s < source_ids.size() ? std::to_string(source_ids[s]) : "null");
+    fields.add("points", std::to_string(source.points));
+    fields.add("rms_before_grey", number(source.rms_before_grey));
+    fields.add("rms_after_grey", number(source.rms_after_grey));
+    fields.add("correction_mm", number(1000 * source.correction_m));
+    fields.add("correction_deg", number(source.correction_deg));
+    fields.add("gain", number(source.gain));
+    fields.add("bias", number(source.bias));
+    fields.add("outcome", quoted(sourceAlignmentOutcomeName(source.outcome)));
     list += (list.empty() ? "" : ", ") + fields.object();
   }
   return "[" + list + "]";
@@ -412,6 +432,11 @@ void MapOutputs::write(const Row& row) {
     total_ms_.push_back(result.times.total_ms);
     estimate_ms_.push_back(result.times.estimate_ms);
   }
+  if (result.direct_alignment.ran) {
+    direct_alignment_ms_.push_back(result.times.direct_alignment_ms);
+    for (const SourceAlignment& source : result.direct_alignment.sources)
+      ++alignment_outcomes_[sourceAlignmentOutcomeName(source.outcome)];
+  }
   if (result.pose_refinement.ran) {
     pose_refinement_ms_.push_back(result.times.pose_refinement_ms);
     for (const SourcePoseRefinement& source : result.pose_refinement.sources)
@@ -425,6 +450,7 @@ void MapOutputs::write(const Row& row) {
   JsonFields json;
   for (const Cell& cell : cells) json.add(cell.name, cell.json);
   json.add("pose_refinement_sources", poseSourcesJson(result.pose_refinement));
+  json.add("direct_alignment_sources", alignmentSourcesJson(result.direct_alignment, result.selection.source_ids));
   json.add("accuracy", has_truth ? accuracyFields(comparison).object() : "null");
   json.add("published_accuracy", comparePublished(result));
   for (const Cell& cell : accuracyCells(has_truth ? &comparison : nullptr)) cells.push_back(cell);
@@ -531,6 +557,17 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
     pose.add(std::string("sources_") + name, std::to_string(pose_outcomes_.count(name) ? pose_outcomes_.at(name) : 0));
   }
   summary.add("pose_refinement", pose.object());
+  JsonFields alignment;
+  alignment.add("results", std::to_string(direct_alignment_ms_.size()));
+  alignment.add("median_ms", number(median(direct_alignment_ms_)));
+  for (const SourceAlignmentOutcome outcome :
+       {SourceAlignmentOutcome::kAligned, SourceAlignmentOutcome::kNoDepth, SourceAlignmentOutcome::kTooFewPoints,
+        SourceAlignmentOutcome::kNotBetter, SourceAlignmentOutcome::kRejected}) {
+    const char* name = sourceAlignmentOutcomeName(outcome);
+    alignment.add(std::string("sources_") + name,
+                  std::to_string(alignment_outcomes_.count(name) ? alignment_outcomes_.at(name) : 0));
+  }
+  summary.add("direct_alignment", alignment.object());
   JsonFields counters;
   for (const PipelineStatField& field : pipelineStatFields()) counters.add(field.name, std::to_string(stats.*field.value));
   summary.add("stats", counters.object());

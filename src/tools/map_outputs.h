@@ -87,6 +87,8 @@ class MapOutputs {
   std::vector<double> total_ms_, estimate_ms_;
   std::vector<double> pose_refinement_ms_;          // results whose poses were refined
   std::map<std::string, size_t> pose_outcomes_;     // sources by SourcePoseOutcome name
+  std::vector<double> direct_alignment_ms_;         // results whose sources were aligned
+  std::map<std::string, size_t> alignment_outcomes_;  // sources by SourceAlignmentOutcome name
   double submit_blocked_ms_ = 0;  // main thread: time add() waited for room in the writer's queue
   BackgroundWriter writer_;  // last: stopped first
 };

@@ -93,6 +93,7 @@
 #include "amhmvs_mapping/mapping/map_updater.h"
 #include "amhmvs_mapping/mapping/keyframe_store.h"
 #include "amhmvs_mapping/mapping/neighbour_depth.h"
+#include "amhmvs_mapping/mapping/direct_alignment.h"
 #include "amhmvs_mapping/mapping/pose_refinement.h"
 #include "amhmvs_mapping/mapping/rolling_shutter.h"
 #include "amhmvs_mapping/mapping/rolling_shutter_rectifier.h"
@@ -148,6 +149,9 @@ struct OnlineMapperOptions {
   // (pose_refinement.h); for the stereo only: the store, depth maps, fusion
   // and map keep the tracker's poses.
   PoseRefinementOptions pose_refinement;
+  // Direct (photometric) alignment of the sources that have depth maps to
+  // the keyframe before stereo (direct_alignment.h), before pose_refinement.
+  DirectAlignmentOptions direct_alignment;
   // Starts and geometric refinements from the neighbours' depth maps (off).
   NeighbourDepthOptions neighbour_depth;
   // Rolling-shutter rectification of each keyframe's image before it is
@@ -203,6 +207,7 @@ struct StageTimes {
   double selection_ms = 0;     // source views
   double depth_range_ms = 0;
   double problem_ms = 0;       // the depth problem (cameras, grey images)
+  double direct_alignment_ms = 0;  // the sources' poses aligned photometrically
   double pose_refinement_ms = 0;  // the sources' poses refined (features, matches, bundle adjustment)
   double estimate_ms = 0;      // the estimator, wall clock (its own time: DepthMap::milliseconds)
   double store_ms = 0;         // copies into the keyframe store (keyframe, depth map, fused points)
@@ -232,6 +237,7 @@ struct KeyframeResult {
   SourceSelection selection;
   bool has_depth = false;        // false: no source view (yet), stored as a source only
   DepthRangeEstimate depth_range;  // when has_depth
+  DirectAlignmentResult direct_alignment;  // when has_depth: the sources aligned before the estimate
   PoseRefinementResult pose_refinement;  // when has_depth: the sources' poses used by the estimate
   Shared<DepthMap> depth;        // when has_depth (shared with the keyframe store)
   PinholeCamera camera;          // the keyframe's camera (pose used)
