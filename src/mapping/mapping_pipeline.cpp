@@ -57,6 +57,7 @@ const std::vector<PipelineStatField>& pipelineStatFields() {
       {"refinements_rejected", &PipelineStats::refinements_rejected},
       {"pose_sources_refined", &PipelineStats::pose_sources_refined},
       {"pose_sources_rejected", &PipelineStats::pose_sources_rejected},
+      {"sources_aligned", &PipelineStats::sources_aligned},
       {"keyframes_without_sources", &PipelineStats::keyframes_without_sources},
       {"skipped_kept_as_sources", &PipelineStats::skipped_kept_as_sources},
       {"keyframes_fused", &PipelineStats::keyframes_fused},
@@ -600,6 +601,7 @@ void MappingPipeline::account(const PipelineOutput& output) {
     if (result.refined) ++stats_.refined_depth_maps;
     stats_.pose_sources_refined += result.pose_refinement.refinedCount();
     stats_.pose_sources_rejected += result.pose_refinement.rejectedCount();
+    stats_.sources_aligned += result.direct_alignment.alignedCount();
     stats_.last_estimate_ms = result.depth->milliseconds;
     stats_.gpu_memory_bytes = result.depth->gpu_memory_bytes;
   }

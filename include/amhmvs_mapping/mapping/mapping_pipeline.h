@@ -123,6 +123,7 @@ struct PipelineStats {
   uint64_t refinements_rejected = 0;   // refinements worse than the depth map they would replace: dropped
   uint64_t pose_sources_refined = 0;   // pose refinement: sources whose relative pose was refined
   uint64_t pose_sources_rejected = 0;  // ... whose correction was implausible (the tracker's pose kept)
+  uint64_t sources_aligned = 0;        // direct alignment: sources whose relative pose was aligned
   uint64_t keyframes_without_sources = 0;  // stored as a source only when they arrived
   uint64_t skipped_kept_as_sources = 0;    // skipped keyframes stored as source views of the newer ones
   uint64_t keyframes_fused = 0;
