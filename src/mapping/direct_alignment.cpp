@@ -130,6 +130,8 @@ std::vector<mvs::AlignmentPoint> selectPoints(const ImageF& level_image, int lev
   const FloatSampler sample{&level_image};
   for (const Eigen::Vector3f& p : surface) {
     if (!(p.z() > 0)) continue;
+    // The level's pixel coordinates (levelIntrinsics' mapping, in double: the
+    // measured results were made with this rounding).
     const float x = static_cast<float>((camera.fx * p.x() / p.z() + camera.cx + 0.5) * scale - 0.5);
     const float y = static_cast<float>((camera.fy * p.y() / p.z() + camera.cy + 0.5) * scale - 0.5);
     if (!(x >= 1 && y >= 1 && x <= level_image.width - 2 && y <= level_image.height - 2)) continue;
@@ -317,7 +319,6 @@ SourceAlignment alignSource(const PinholeCamera& reference_camera, const std::ve
   Relative tracker_lit = tracker;
   tracker_lit.log_gain = relative.log_gain;
   tracker_lit.bias = relative.bias;
-  tracker_lit.across_epipolar = relative.across_epipolar;
   const Evaluation baseline = evaluate(finest, tracker_lit, intrinsics, reference_pyramid[0], huber, false);
   if (!(after.cost < baseline.cost) || !aligned.R.allFinite() || !aligned.t.allFinite()) {
     out.outcome = SourceAlignmentOutcome::kNotBetter;
