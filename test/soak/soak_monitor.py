@@ -3,8 +3,9 @@
 frame (image, camera info, pose) becomes an amhmvs_mapping/Keyframe with its
 own increasing id, so that it knows every keyframe's id and pose; every
 repose_every_s it sends a loop-closure update of the 100 newest keyframes
-(their pose moved 5 mm); every reset_every_s a ~reset. Every 10 s of wall time a row of the nodelet's diagnostics and its
-resident memory goes to OUT/soak.csv; after `minutes` a summary
+(their pose moved 5 mm); every reset_every_s a ~reset. Every 10 s of wall
+time a row of the nodelet's diagnostics and its resident memory goes to
+OUT/soak.csv; after `minutes` a summary
 (OUT/summary.txt: memory and per-keyframe time after warm-up, the store and
 map against their bounds) and the end of the launch."""
 import collections
