@@ -200,10 +200,16 @@ struct WorkBuffers {
   // is carried from them on the device.
   OutputBuffers intermediate;
   cuda::DeviceBuffer<uint8_t> intermediate_reference;
+  // A full-size first pass that a second one refines (the planar prior): its
+  // own set, since it reads the intermediate set (its coarser scale) while
+  // it runs, and the last result may still be fused.
+  OutputBuffers first_pass;
   const float* intermediate_host_depth = nullptr;  // their download, while it is the last estimate's
   int intermediate_width = 0, intermediate_height = 0;
   // Geometric pass only: source depth maps, prior depth and normals.
   cuda::DeviceBuffer<float> source_depths, prior_depth, prior_normal;
+  // The planar prior's planes (planar_prior_pixel.h).
+  cuda::DeviceBuffer<float> planar_depth, planar_normal;
 
   void reserve(size_t pixels) {
     reference.reserve(pixels);
@@ -215,9 +221,9 @@ struct WorkBuffers {
   }
   size_t bytes() const {
     return reference.bytes() + planes.bytes() + costs.bytes() + selected.bytes() + best_view.bytes() +
-           raw_depth.bytes() + outputs[0].bytes() + outputs[1].bytes() + intermediate.bytes() +
+           raw_depth.bytes() + outputs[0].bytes() + outputs[1].bytes() + intermediate.bytes() + first_pass.bytes() +
            intermediate_reference.bytes() + source_depths.bytes() +
-           prior_depth.bytes() + prior_normal.bytes();
+           prior_depth.bytes() + prior_normal.bytes() + planar_depth.bytes() + planar_normal.bytes();
   }
 };
 
@@ -233,7 +239,7 @@ class CudaState {
   // used, they get a fifth of the budget: as many images as the other four
   // fifths hold at twice their width and height.
   cuda::DeviceImagePool& poolFor(CudaOutputUse use) {
-    if (use == CudaOutputUse::kResult) return pool;
+    if (use != CudaOutputUse::kIntermediate) return pool;
     if (!coarser_pool_used) {
       coarser_pool_used = true;
       pool.setBudget(budget_bytes - budget_bytes / 5);
@@ -351,8 +357,9 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
   // The set the estimate before the last one wrote (the last one's stays
   // valid); a failed estimate leaves it to the next.
   const bool result = use == CudaOutputUse::kResult;
+  const bool intermediate = use == CudaOutputUse::kIntermediate;
   const int output_set = work.next_output;
-  OutputBuffers& output = result ? work.outputs[output_set] : work.intermediate;
+  OutputBuffers& output = result ? work.outputs[output_set] : intermediate ? work.intermediate : work.first_pass;
   cuda::DeviceImagePool& pool = state.poolFor(use);
   DepthMap out;
   state.last_outputs = DeviceDepthMap();
@@ -382,6 +389,14 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
       P.prior_depth = work.prior_depth.get();
       P.prior_normal = work.prior_normal.get();
     }
+    if (problem.planar_prior_depth.data) {
+      work.planar_depth.reserve(pixels);
+      work.planar_normal.reserve(3 * pixels);
+      work.planar_depth.uploadAsync(problem.planar_prior_depth.data, pixels, stream);
+      work.planar_normal.uploadAsync(problem.planar_prior_normal.data, 3 * pixels, stream);
+      P.planar.depth = work.planar_depth.get();
+      P.planar.normal = work.planar_normal.get();
+    }
     const PixelState pixel_state{work.planes.get(), work.costs.get(), work.selected.get(), work.best_view.get()};
     const GpuSampler sampler{work.reference.get(), width, height, pool.texture()};
     state.uploaded.record(stream);
@@ -404,7 +419,7 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
     output.depth.downloadAsync(out.depth.data.data(), pixels, stream);
     output.normal.downloadAsync(out.normal.data.data(), 3 * pixels, stream);
     output.cost.downloadAsync(out.cost.data.data(), pixels, stream);
-    if (!result) {  // the next scale carries these maps from its reference image
+    if (intermediate) {  // the next scale carries these maps from its reference image
       work.intermediate_reference.reserve(pixels);
       AMHMVS_CUDA_CHECK(cudaMemcpyAsync(work.intermediate_reference.get(), work.reference.get(), pixels,
                                         cudaMemcpyDeviceToDevice, stream));
@@ -424,12 +439,12 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
   out.compute_milliseconds = state.stop.millisecondsSince(state.uploaded);
   const DeviceCacheStats memory = state.stats();
   out.gpu_memory_bytes = memory.pool_bytes + memory.work_bytes;
-  if (!result) {
+  if (intermediate) {
     work.intermediate_host_depth = out.depth.data.data();
     work.intermediate_width = width;
     work.intermediate_height = height;
-    return out;
   }
+  if (!result) return out;
   work.next_output = output_set ^ 1;
   state.last_outputs.host_depth = out.depth.data.data();
   state.last_outputs.host_normal = out.normal.data.data();

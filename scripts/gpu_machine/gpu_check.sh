@@ -21,7 +21,7 @@ out=${OUT:-$here/gpu_results}
 mkdir -p "$out"
 data=/tmp/amhmvs_gpu_data
 arch=${AMHMVS_CUDA_ARCHITECTURES:-90}
-steps=${AMHMVS_GPU_STEPS:-"tests sanitize bench"}  # also: baseline depthwall profile variants
+steps=${AMHMVS_GPU_STEPS:-"tests sanitize bench"}  # also: baseline depthwall profile variants planar
 status=0
 
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader | tee "$out/device.txt"
@@ -142,6 +142,38 @@ p.convert_dense_folder('/tmp/synthetic_640_png', '/tmp/synthetic_640')"
     [ -d "$folder" ] && "$bin/amhmvs_depth" "$folder" /tmp/wall_out --backend cuda $extra 2>&1 | grep "ms in all" \
       | sed "s|^|  $(basename $folder): |" | tee -a "$out/depth_wall.md"
   done
+fi
+if [[ " $steps " == *" planar "* ]]; then
+  # The planar prior (mvs/planar_prior.h) against none: Middlebury dev pooled
+  # (two views each, --views 0,1), two scales with one finer iteration,
+  # photometric and with --geometric; the fountain's estimator time per map
+  # from amhmvs_depth's summary line (its accuracy: the GPU tests).
+  echo "== planar prior =="
+  {
+    echo "| set | mode | planar prior | within 1 / 2 / 5 % | estimating ms per map |"
+    echo "|---|---|---|---|---|"
+    for mode in "" "--geometric"; do
+      for prior in false true; do
+        pooled=$(for scene in Adirondack Motorcycle Piano Playtable; do
+          "$bin/amhmvs_depth" "$data/mvsnet/middlebury2014_$scene" /tmp/planar_out --backend cuda --num_sources 1 \
+            --multiscale 2 --multiscale_iterations 1 --views 0,1 --ground_truth "$data/middlebury2014/$scene" \
+            --planar_prior $prior $mode 2>&1 | grep "depth accuracy"
+        done | python3 -c '
+import re, sys
+n = 0; s = [0.0, 0.0, 0.0]
+for line in sys.stdin:
+    m = re.search(r"\((\d+) pixels\): within 1/2/5 %: ([\d.]+) / ([\d.]+) / ([\d.]+)", line)
+    k = int(m.group(1)); n += k
+    for i in range(3): s[i] += k * float(m.group(i + 2))
+print(" / ".join("%.2f" % (v / n) for v in s))')
+        echo "| Middlebury dev (4) | ${mode:-photometric} | $prior | $pooled | |"
+        line=$("$bin/amhmvs_depth" "$data/mvsnet/fountain_x0.25" /tmp/planar_out --backend cuda --multiscale 2 \
+          --multiscale_iterations 1 --planar_prior $prior $mode 2>&1)
+        per_map=$(echo "$line" | grep -o "[0-9]* estimating" | head -1 | awk '{printf "%.1f", $1 / 11}')
+        echo "| fountain x0.25 (11 maps, 10 sources) | ${mode:-photometric} | $prior | | $per_map |"
+      done
+    done
+  } | tee "$out/planar_prior.md"
 fi
 if [[ " $steps " == *" bench "* ]]; then
   echo "== benchmark =="

@@ -1,6 +1,8 @@
 #include "amhmvs_mapping/eval/depth_metrics.h"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 #include <fstream>
 #include <iomanip>
 #include <map>
@@ -49,14 +51,14 @@ AccuracyCounts denseDepthAccuracy(const ImageF& depth, const ImageF& truth,
   return counts;
 }
 
-DepthComparison compareDepth(const ImageF& estimate, const ImageF& truth) {
-  if (!estimate.sameSize(truth.width, truth.height)) {
-    throw InputError("depth map and ground truth differ in size");
+DepthComparison compareDepth(const ImageF& estimate, const ImageF& truth, const ImageU8* mask) {
+  if (!estimate.sameSize(truth.width, truth.height) || (mask && !mask->sameSize(truth.width, truth.height))) {
+    throw InputError("depth map, ground truth and mask differ in size");
   }
   DepthComparison comparison;
   for (size_t i = 0; i < truth.data.size(); ++i) {
     const float t = truth.data[i], d = estimate.data[i];
-    if (!(std::isfinite(t) && t > 0)) continue;
+    if (!(std::isfinite(t) && t > 0) || (mask && mask->data[i] == 0)) continue;
     ++comparison.truth_pixels;
     if (std::isfinite(d) && d > 0) comparison.accuracy.add(d, t);
   }

@@ -23,7 +23,10 @@ void destroyCudaState(CudaState* state);
 // What an estimate's device outputs are: the result (kept, in one of two
 // sets used in turn, until the estimate after next: cudaLastOutputs) or a
 // coarser scale of a coarse-to-fine estimate (scratch, overwritten by the next).
-enum class CudaOutputUse { kResult, kIntermediate };
+// kResult: the estimate's result (the device outputs a consumer may read);
+// kIntermediate: a coarser scale's (its images in the coarser pool);
+// kFirstPass: a full-size first pass that a second one refines.
+enum class CudaOutputUse { kResult, kIntermediate, kFirstPass };
 DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, const PatchMatchParams& params,
                         const DepthProblem& problem, CudaOutputUse use);
 void forgetOnCuda(CudaState& state, int64_t key);

@@ -43,6 +43,10 @@ DepthMap estimateOnCpu(const PatchMatchOptions& options, const PatchMatchParams&
     P.prior_depth = problem.prior_depth.data;
     P.prior_normal = problem.prior_normal.data;
   }
+  if (problem.planar_prior_depth.data) {
+    P.planar.depth = problem.planar_prior_depth.data;
+    P.planar.normal = problem.planar_prior_normal.data;
+  }
   PlaneMap carried;  // a coarser scale's planes at this scale
   if (problem.coarser) {
     const DepthProblem::CoarserScale& c = *problem.coarser;

@@ -6,6 +6,7 @@
 
 #include "amhmvs_mapping/core/error.h"
 #include "amhmvs_mapping/mvs/coarse_to_fine.h"
+#include "amhmvs_mapping/mvs/planar_prior.h"
 #include "backends.h"
 
 namespace amhmvs {
@@ -90,6 +91,19 @@ std::string DepthProblem::validate() const {
               !prior_normal.sameSize(reference_camera.width, reference_camera.height))) {
     why << "prior depth (" << prior_depth.width << "x" << prior_depth.height << "x" << prior_depth.channels
         << ") and normal (" << prior_normal.width << "x" << prior_normal.height << "x" << prior_normal.channels
+        << ") maps must be 1 and 3 channels at the reference size " << reference_camera.width << "x"
+        << reference_camera.height << "\n";
+  }
+  const bool has_planar_depth = planar_prior_depth.data != nullptr;
+  if (has_planar_depth != (planar_prior_normal.data != nullptr)) {
+    why << "planar prior depth and normal maps must be given together\n";
+  } else if (has_planar_depth &&
+             (planar_prior_depth.channels != 1 || planar_prior_normal.channels != 3 ||
+              !planar_prior_depth.sameSize(reference_camera.width, reference_camera.height) ||
+              !planar_prior_normal.sameSize(reference_camera.width, reference_camera.height))) {
+    why << "planar prior depth (" << planar_prior_depth.width << "x" << planar_prior_depth.height << "x"
+        << planar_prior_depth.channels << ") and normal (" << planar_prior_normal.width << "x"
+        << planar_prior_normal.height << "x" << planar_prior_normal.channels
         << ") maps must be 1 and 3 channels at the reference size " << reference_camera.width << "x"
         << reference_camera.height << "\n";
   }
@@ -179,11 +193,43 @@ PatchMatchParams makePatchMatchParams(const PatchMatchOptions& o, const DepthPro
   p.geometric = {!problem.source_depths.empty(), o.geometric_weight, o.geometric_max_error};
   p.source_depths = nullptr;
   p.prior_depth = p.prior_normal = nullptr;
+  p.planar = PlanarPriorTerm();  // the backend points it at the problem's maps
+  p.planar.weight = o.planar_prior_weight;
+  p.planar.inv_depth_sigma = 1.0f / o.planar_prior_depth_sigma;
+  const float normal_sigma = o.planar_prior_normal_sigma_deg * static_cast<float>(M_PI) / 180.0f;
+  p.planar.inv_normal_sigma_squared = 1.0f / (normal_sigma * normal_sigma);
   p.unscored_cost = kMaxCost + (p.geometric.enabled ? o.geometric_weight * o.geometric_max_error : 0.0f);
   return p;
 }
 
 }  // namespace mvs
+
+namespace {
+
+// The planar prior's second pass (mvs/planar_prior.h): local refinement at
+// full scale from the first pass's planes, with the prior made from them.
+template <class Run>
+DepthMap secondPassWithPlanarPrior(const PatchMatchOptions& options, const DepthProblem& problem,
+                                   const DepthMap& first, const Run& run) {
+  const mvs::PlaneMap prior =
+      mvs::planarPrior(problem.reference_image, first.depth, first.normal, first.cost, problem.reference_camera, options);
+  DepthProblem second = problem;
+  second.coarser.reset();
+  second.prior_depth = first.depth;
+  second.prior_normal = first.normal;
+  second.planar_prior_depth = prior.depth;
+  second.planar_prior_normal = prior.normal;
+  PatchMatchOptions refinement = options;
+  refinement.num_iterations = options.planar_prior_iterations;
+  refinement.first_iteration = options.bisection_only_iterations;
+  refinement.multiscale_levels = 1;
+  DepthMap out = run(refinement, second, mvs::CudaOutputUse::kResult);
+  out.milliseconds += first.milliseconds;
+  out.compute_milliseconds += first.compute_milliseconds;
+  return out;
+}
+
+}  // namespace
 
 DepthEstimator::DepthEstimator(const PatchMatchOptions& options, Backend backend,
                                const EstimatorResources& resources)
@@ -209,21 +255,32 @@ DepthMap DepthEstimator::estimate(const DepthProblem& problem) const {
     options.num_iterations = problem.prior_iterations;
     options.first_iteration = options.bisection_only_iterations;
   }
+  const bool second_pass = options_.planar_prior;
   // Every scale of a coarse-to-fine estimate runs on this estimator's backend.
-  return mvs::estimateCoarseToFine(options, problem, [this, &problem](const PatchMatchOptions& options,
-                                                                       const DepthProblem& scale_problem) {
+  // A coarser scale's maps only start the next scale, and a first pass's the
+  // second: neither may take the place of the last result (CUDA), which may
+  // still be fused.
+  const auto run = [this, &problem](const PatchMatchOptions& options, const DepthProblem& scale_problem,
+                                    mvs::CudaOutputUse full_scale_use) {
     const mvs::PatchMatchParams params = mvs::makePatchMatchParams(options, scale_problem);
     if (backend_ == Backend::kCuda) {
-      // A coarser scale's maps only start the next scale: they must not take
-      // the place of the last result, which may still be fused.
       const bool full_scale = scale_problem.reference_camera.width == problem.reference_camera.width &&
                               scale_problem.reference_camera.height == problem.reference_camera.height;
       const std::lock_guard<std::mutex> lock(mutex_);
       return mvs::estimateOnCuda(*cuda_, options, params, scale_problem,
-                                 full_scale ? mvs::CudaOutputUse::kResult : mvs::CudaOutputUse::kIntermediate);
+                                 full_scale ? full_scale_use : mvs::CudaOutputUse::kIntermediate);
     }
     return mvs::estimateOnCpu(options, params, scale_problem);
-  }, &scaled_images_);
+  };
+  DepthMap first = mvs::estimateCoarseToFine(
+      options, problem,
+      [&](const PatchMatchOptions& options, const DepthProblem& scale_problem) {
+        return run(options, scale_problem,
+                   second_pass ? mvs::CudaOutputUse::kFirstPass : mvs::CudaOutputUse::kResult);
+      },
+      &scaled_images_);
+  if (!second_pass) return first;
+  return secondPassWithPlanarPrior(options, problem, first, run);
 }
 
 void DepthEstimator::forget(int64_t key) {

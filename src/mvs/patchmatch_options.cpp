@@ -67,6 +67,27 @@ const std::vector<OptionInfo>& patchMatchOptionTable() {
                   "coarse-to-fine scales, each half the next; 1: single scale, the paper (not in the paper)"),
       numberField("multiscale_iterations", &O::multiscale_iterations,
                   "iterations at each finer scale, from the coarser scale's planes (not in the paper)"),
+      switchField("planar_prior", &O::planar_prior,
+                  "a second pass with a prior from the first one's triangulated confident pixels, for weakly "
+                  "textured planes (not in the paper)"),
+      numberField("planar_prior_iterations", &O::planar_prior_iterations,
+                  "planar prior: iterations of local refinement in the second pass"),
+      numberField("planar_prior_weight", &O::planar_prior_weight,
+                  "planar prior: the most it adds to a hypothesis's cost (lambda; matching costs are 0..2)"),
+      numberField("planar_prior_max_cost", &O::planar_prior_max_cost,
+                  "planar prior: a pixel of the first pass supports it when its cost is at most this"),
+      numberField("planar_prior_cell", &O::planar_prior_cell,
+                  "planar prior: one support point (the lowest cost) per cell of this many pixels square"),
+      numberField("planar_prior_depth_sigma", &O::planar_prior_depth_sigma,
+                  "planar prior: width of its depth term, relative to the depth"),
+      numberField("planar_prior_normal_sigma", &O::planar_prior_normal_sigma_deg,
+                  "planar prior: width of its normal term, degrees"),
+      numberField("planar_prior_max_vertex_angle", &O::planar_prior_max_vertex_angle_deg,
+                  "planar prior: a triangle is used when its plane is within this angle of its corners' normals, "
+                  "degrees"),
+      numberField("planar_prior_max_gradient", &O::planar_prior_max_gradient,
+                  "planar prior: only at pixels whose mean grey-level gradient over 5x5 pixels is below this "
+                  "(weak texture; grey levels per pixel)"),
       numberField("median_filter", &O::median_filter_size, "median filter size on depth (paper: 4; 0 or 1: off)"),
   };
   return table;
@@ -113,6 +134,23 @@ std::string PatchMatchOptions::validate() const {
   require(first_iteration >= 0 && first_iteration <= 100, "first_iteration must be in 0..100");
   require(multiscale_levels >= 1 && multiscale_levels <= 6, "multiscale must be in 1..6");
   require(multiscale_iterations >= 1 && multiscale_iterations <= 100, "multiscale_iterations must be in 1..100");
+  require(planar_prior_iterations >= 1 && planar_prior_iterations <= 100,
+          "planar_prior_iterations must be in 1..100");
+  require(std::isfinite(planar_prior_weight) && planar_prior_weight >= 0 && planar_prior_weight <= 2,
+          "planar_prior_weight must be in [0, 2]");
+  require(std::isfinite(planar_prior_max_cost) && planar_prior_max_cost > 0 && planar_prior_max_cost <= 2,
+          "planar_prior_max_cost must be in (0, 2]");
+  require(planar_prior_cell >= 2 && planar_prior_cell <= 256, "planar_prior_cell must be in 2..256 pixels");
+  require(std::isfinite(planar_prior_depth_sigma) && planar_prior_depth_sigma > 0 && planar_prior_depth_sigma <= 1,
+          "planar_prior_depth_sigma must be in (0, 1]");
+  require(std::isfinite(planar_prior_normal_sigma_deg) && planar_prior_normal_sigma_deg > 0 &&
+              planar_prior_normal_sigma_deg <= 90,
+          "planar_prior_normal_sigma must be in (0, 90] degrees");
+  require(std::isfinite(planar_prior_max_vertex_angle_deg) && planar_prior_max_vertex_angle_deg > 0 &&
+              planar_prior_max_vertex_angle_deg <= 90,
+          "planar_prior_max_vertex_angle must be in (0, 90] degrees");
+  require(std::isfinite(planar_prior_max_gradient) && planar_prior_max_gradient > 0,
+          "planar_prior_max_gradient must be positive");
   require(median_filter_size >= 0 && median_filter_size <= 8, "median_filter must be in 0..8");
   return why.str();
 }

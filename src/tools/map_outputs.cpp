@@ -133,6 +133,29 @@ JsonFields accuracyFields(const DepthComparison& comparison) {
   return fields;
 }
 
+// The comparisons of all keyframes as one.
+DepthComparison pooledComparison(const std::map<int64_t, DepthComparison>& per_keyframe) {
+  DepthComparison pooled;
+  for (const auto& entry : per_keyframe) pooled.merge(entry.second);
+  return pooled;
+}
+
+// Published depth: a keyframe never fused published nothing (its truth
+// pixels count, none covered).
+DepthComparison pooledPublished(const std::map<int64_t, DepthComparison>& estimated,
+                                const std::map<int64_t, DepthComparison>& published) {
+  DepthComparison pooled;
+  for (const auto& entry : estimated) {
+    const auto found = published.find(entry.first);
+    if (found != published.end()) {
+      pooled.merge(found->second);
+    } else {
+      pooled.truth_pixels += entry.second.truth_pixels;
+    }
+  }
+  return pooled;
+}
+
 }  // namespace
 
 struct MapOutputs::Row {
@@ -386,8 +409,12 @@ std::string MapOutputs::comparePublished(const KeyframeResult& result) {
     if (published.empty() || frame_it == frame_of_id_.end()) return;
     const PosedFrame& frame = sequence_.frames[frame_it->second];
     if (!frame.ground_truth.present()) return;
-    const DepthComparison comparison = compareDepth(published.depth, groundTruthDepthIn(frame.ground_truth, camera));
+    const ImageF truth = groundTruthDepthIn(frame.ground_truth, camera);
+    const DepthComparison comparison = compareDepth(published.depth, truth);
     published_accuracy_[id] = comparison;
+    const auto mask = weak_texture_masks_.find(id);
+    if (mask != weak_texture_masks_.end() && mask->second.sameSize(truth.width, truth.height))
+      weak_published_accuracy_[id] = compareDepth(published.depth, truth, &mask->second);
     JsonFields row = accuracyFields(comparison);
     row.add("id", std::to_string(id));
     if (frames > 0) row.add("filter_frames", std::to_string(frames));
@@ -403,9 +430,15 @@ bool MapOutputs::compareWithTruth(const KeyframeResult& result, const PosedFrame
                                   DepthComparison* comparison) {
   if (!result.has_depth || !frame || !frame->ground_truth.present()) return false;
   const DepthMapView truth = readGroundTruthDepth(frame->ground_truth, result.camera);
-  *comparison = compareDepth(result.depth->depth,
-                             groundTruthDepthIn(truth, frame->ground_truth.registered, result.camera));
+  const ImageF truth_here = groundTruthDepthIn(truth, frame->ground_truth.registered, result.camera);
+  *comparison = compareDepth(result.depth->depth, truth_here);
   accuracy_[result.id] = *comparison;  // a refinement replaces the earlier depth map
+  auto mask = weak_texture_masks_.find(result.id);
+  if (mask == weak_texture_masks_.end()) {
+    const ImageU8 grey = resizeArea(toGray(readImage(frame->image_path)), result.camera.width, result.camera.height);
+    mask = weak_texture_masks_.emplace(result.id, weakTextureMask(grey)).first;
+  }
+  weak_accuracy_[result.id] = compareDepth(result.depth->depth, truth_here, &mask->second);
   if (!truth_points_.count(result.id)) {
     const int stride = std::max(1, truth.depth.width / kTruthSurfaceColumns);
     truth_points_[result.id] = backprojectDepthMaps({trueSurfaceView(truth, *frame)}, stride);
@@ -576,8 +609,7 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   writer.add("blocked_ms", number(submit_blocked_ms_));
   summary.add("writer", writer.object());
 
-  DepthComparison pooled;
-  for (const auto& entry : accuracy_) pooled.merge(entry.second);
+  const DepthComparison pooled = pooledComparison(accuracy_);
   if (accuracy_.empty()) {
     summary.add("depth_accuracy", "null");
   } else {
@@ -585,17 +617,7 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
     accuracy.add("depth_maps", std::to_string(accuracy_.size()));
     summary.add("depth_accuracy", accuracy.object());
   }
-  // Published depth: a keyframe never fused published nothing (its truth
-  // pixels count, none covered).
-  DepthComparison published;
-  for (const auto& entry : accuracy_) {
-    const auto found = published_accuracy_.find(entry.first);
-    if (found != published_accuracy_.end()) {
-      published.merge(found->second);
-    } else {
-      published.truth_pixels += entry.second.truth_pixels;
-    }
-  }
+  const DepthComparison published = pooledPublished(accuracy_, published_accuracy_);
   const bool report_published = publishesWhenFused() && !accuracy_.empty();
   if (!report_published) {
     summary.add("published_depth_accuracy", "null");
@@ -604,6 +626,19 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
     accuracy.add("depth_maps", std::to_string(published_accuracy_.size()));
     accuracy.add("confidence_level", number(options_.pipeline.mapper.confidence.min_probability));
     summary.add("published_depth_accuracy", accuracy.object());
+  }
+  // The weakly textured pixels alone (eval/depth_metrics.h's weakTextureMask).
+  const DepthComparison weak = pooledComparison(weak_accuracy_);
+  const DepthComparison weak_published = pooledPublished(weak_accuracy_, weak_published_accuracy_);
+  if (weak_accuracy_.empty()) {
+    summary.add("weak_texture", "null");
+  } else {
+    JsonFields weak_fields;
+    weak_fields.add("share_of_truth_pixels_pct", number(100.0 * weak.truth_pixels / std::max(1L, pooled.truth_pixels)));
+    weak_fields.add("max_gradient_grey", number(kWeakTextureGradient));
+    weak_fields.add("depth_accuracy", accuracyFields(weak).object());
+    weak_fields.add("published_depth_accuracy", report_published ? accuracyFields(weak_published).object() : "null");
+    summary.add("weak_texture", weak_fields.object());
   }
 
   JsonFields map;
@@ -757,6 +792,17 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
                   options_.pipeline.mapper.confidence.min_probability, published.accuracy.percentages().c_str(),
                   100 * published.completeness());
     *line += text;
+  }
+  if (!weak_accuracy_.empty()) {
+    std::snprintf(text, sizeof(text), "; weakly textured pixels (%.0f %%): depth within 5 %% %.1f %% (completeness %.1f %%)",
+                  100.0 * weak.truth_pixels / std::max(1L, pooled.truth_pixels), 100 * weak.accuracy.fraction(2),
+                  100 * weak.completeness());
+    *line += text;
+    if (report_published) {
+      std::snprintf(text, sizeof(text), ", published %.1f %% (completeness %.1f %%)",
+                    100 * weak_published.accuracy.fraction(2), 100 * weak_published.completeness());
+      *line += text;
+    }
   }
   if (!pose_refinement_ms_.empty()) {
     size_t sources = 0;

@@ -75,6 +75,10 @@ class MapOutputs {
   std::map<std::string, size_t> kinds_;
   std::map<int64_t, DepthComparison> accuracy_;  // latest depth map of each keyframe
   std::map<int64_t, DepthComparison> published_accuracy_;  // latest published depth map of each keyframe
+  // The same on the weakly textured pixels only (eval/depth_metrics.h), with
+  // each keyframe's mask at the processed size.
+  std::map<int64_t, ImageU8> weak_texture_masks_;
+  std::map<int64_t, DepthComparison> weak_accuracy_, weak_published_accuracy_;
   std::map<int64_t, DepthRangeEstimate> depth_ranges_;  // of each keyframe's latest depth map (previews)
   std::map<int64_t, size_t> keyframe_pixels_;  // of each keyframe with a depth map, at the processed size
   std::map<int64_t, std::vector<Eigen::Vector3f>> truth_points_;  // true surface, world (trueSurfaceView)

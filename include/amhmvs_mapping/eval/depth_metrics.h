@@ -9,6 +9,7 @@
 
 #include "amhmvs_mapping/core/camera.h"
 #include "amhmvs_mapping/core/image.h"
+#include "amhmvs_mapping/core/texture.h"
 
 namespace amhmvs {
 
@@ -46,8 +47,11 @@ struct DepthComparison {
     truth_pixels += other.truth_pixels;
   }
 };
-// Throws InputError when the sizes differ.
-DepthComparison compareDepth(const ImageF& estimate, const ImageF& truth);
+// Throws InputError when the sizes differ. With `mask`, only the pixels
+// where it is non-zero count.
+DepthComparison compareDepth(const ImageF& estimate, const ImageF& truth, const ImageU8* mask = nullptr);
+
+// (The weakly textured pixels that reports split off: core/texture.h.)
 
 struct MiddleburyGroundTruth {
   ImageF depth;        // metres, NaN where unknown

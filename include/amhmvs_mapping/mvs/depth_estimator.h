@@ -63,6 +63,12 @@ struct DepthProblem {
   // near the answer already. With several scales (multiscale), the prior
   // starts the coarsest one.
   int prior_iterations = 0;
+  // Optional planar prior (empty, or both at the reference camera's size):
+  // per pixel a plane's depth (NaN: none) and unit normal whose term
+  // (planar_prior_pixel.h) is added to every hypothesis's cost. With
+  // PatchMatchOptions::planar_prior the estimator makes one from its first
+  // pass and runs a second; a caller may give its own (e.g. from a map).
+  ImageViewF planar_prior_depth, planar_prior_normal;
   // Coarse-to-fine (mvs/coarse_to_fine.h): the estimate of this view at the
   // next coarser scale, whose planes, carried to this scale by
   // resamplePlanes (mvs/plane_map.h), start this estimate (instead of

@@ -75,6 +75,21 @@ struct PatchMatchOptions {
   int multiscale_levels = 1;
   int multiscale_iterations = 2;
 
+  // --- Planar prior (not in the paper; planar_prior.h) ---
+  // A second pass from the first estimate, with a prior from the triangulated
+  // confident pixels that holds weakly textured planes.
+  bool planar_prior = false;
+  int planar_prior_iterations = 1;          // iterations of the second pass (local refinement; 2 lose on redkitchen)
+  float planar_prior_weight = 0.3f;         // lambda: the most the prior adds to a hypothesis's cost
+  float planar_prior_max_cost = 0.3f;       // a support point's matching cost, at most
+  int planar_prior_cell = 8;                // one support point per cell of this many pixels square
+  float planar_prior_depth_sigma = 0.02f;   // sigma_d, relative depth
+  float planar_prior_normal_sigma_deg = 10.0f;      // sigma_n
+  float planar_prior_max_vertex_angle_deg = 30.0f;  // a triangle's plane against its corners' normals, at most
+  // Weakly textured pixels only (core/texture.h): where the image has texture
+  // the matching cost is sharper than a triangle's plane is right.
+  float planar_prior_max_gradient = 3.0f;
+
   // --- Post-processing ---
   int median_filter_size = 4;  // paper: 4x4 median on depth; 0 or 1 disables
 

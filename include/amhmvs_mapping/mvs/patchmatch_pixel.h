@@ -18,6 +18,7 @@
 #include "amhmvs_mapping/mvs/geometric_consistency.h"
 #include "amhmvs_mapping/mvs/hd.h"
 #include "amhmvs_mapping/mvs/matching_cost.h"
+#include "amhmvs_mapping/mvs/planar_prior_pixel.h"
 #include "amhmvs_mapping/mvs/propagation_pattern.h"
 #include "amhmvs_mapping/mvs/random.h"
 #include "amhmvs_mapping/mvs/view_selection.h"
@@ -52,6 +53,8 @@ struct PatchMatchParams {
   // of random planes where they are valid; null: random start.
   const float* prior_depth;
   const float* prior_normal;
+  // The planar prior's term (planar_prior_pixel.h; depth null: off).
+  PlanarPriorTerm planar;
   float unscored_cost;  // a pixel's cost at or above this: nothing could be scored
 };
 
@@ -132,7 +135,23 @@ AMHMVS_HD void addGeometricCosts(const PatchMatchParams& P, const SourceGeometry
   }
 }
 
-// The prior's plane at pixel `index` when it is usable, else false.
+// A hypothesis's cost beyond its matching cost: the planar prior's term, 0
+// without one.
+AMHMVS_HD float priorCost(const PatchMatchParams& P, const Plane& plane, int x, int y) {
+  if (!P.planar.depth) return 0.0f;
+  const Vec3 ray = pixelRay(P.K, static_cast<float>(x), static_cast<float>(y));
+  return planarPriorCost(P.planar, y * P.width + x, planeDepth(plane, ray), plane.n);
+}
+
+// The planar prior's plane at pixel `index` when there is one, else false.
+AMHMVS_HD bool planarPriorPlane(const PatchMatchParams& P, int index, float* depth, Vec3* normal) {
+  if (!P.planar.depth || !(P.planar.depth[index] > 0.0f)) return false;
+  *depth = P.planar.depth[index];
+  *normal = {P.planar.normal[3 * index], P.planar.normal[3 * index + 1], P.planar.normal[3 * index + 2]};
+  return true;
+}
+
+// The start's plane at pixel `index` when it is usable, else false.
 AMHMVS_HD bool priorPlane(const PatchMatchParams& P, int index, Vec3 ray, Plane* plane) {
   if (!P.prior_depth) return false;
   const float depth = P.prior_depth[index];
@@ -170,7 +189,7 @@ AMHMVS_HD void initializePixel(const PatchMatchParams& P, const Sampler& sampler
   ViewWeights heuristic;
   heuristic.heuristic = true;
   state.plane[index] = plane;
-  state.cost[index] = aggregateCost(P.selection, heuristic, costs, P.num_sources);
+  state.cost[index] = aggregateCost(P.selection, heuristic, costs, P.num_sources) + priorCost(P, plane, x, y);
   state.selected[index] = 0;
   state.best_view[index] = kNoView;
 }
@@ -209,7 +228,7 @@ AMHMVS_HD float scoreHypothesis(const PatchMatchParams& P, const SourceGeometry*
   }
   batch.flush();
   addGeometricCosts(P, sources, views.view, views.count, plane, x, y, costs);
-  return aggregateCost(P.selection, weights, costs, P.num_sources);
+  return aggregateCost(P.selection, weights, costs, P.num_sources) + priorCost(P, plane, x, y);
 }
 
 // scoreHypothesis of `count` (<= 8) planes, their costs evaluated together
@@ -231,7 +250,7 @@ AMHMVS_HD void scoreHypotheses(const PatchMatchParams& P, const SourceGeometry* 
   batch.flush();
   for (int c = 0; c < count; ++c) {
     addGeometricCosts(P, sources, views.view, views.count, planes[c], x, y, costs[c]);
-    scores[c] = aggregateCost(P.selection, weights, costs[c], P.num_sources);
+    scores[c] = aggregateCost(P.selection, weights, costs[c], P.num_sources) + priorCost(P, planes[c], x, y);
   }
 }
 
@@ -348,10 +367,10 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const SourceGeometry* sour
   hypotheses[rows] = plane;
   const int same = firstEqualPlane(hypotheses, rows);
   float cost = same < rows
-                   ? aggregateCost(P.selection, weights, &matrix[same * n], n)
+                   ? aggregateCost(P.selection, weights, &matrix[same * n], n) + priorCost(P, plane, x, y)
                    : scoreHypothesis<Window>(P, sources, sampler, win, weights, views, plane, x, y);
   for (int i = 0; i < rows; ++i) {
-    const float c = aggregateCost(P.selection, weights, &matrix[i * n], n);
+    const float c = aggregateCost(P.selection, weights, &matrix[i * n], n) + priorCost(P, hypotheses[i], x, y);
     if (c < cost) {
       cost = c;
       plane = hypotheses[i];
@@ -381,6 +400,10 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const SourceGeometry* sour
     const float candidate_depth = depth + rng.uniform(-half_width, half_width);
     tryHypothesis(candidate_depth, perturbNormal(P, plane.n, ray, scale, &rng));
   }
+  // The planar prior's own plane.
+  float planar_depth;
+  Vec3 planar_normal;
+  if (planarPriorPlane(P, index, &planar_depth, &planar_normal)) tryHypothesis(planar_depth, planar_normal);
   // COLMAP-style: perturbed and random depth and normal, in the combinations
   // where neither, one or both of the current values are close to the truth.
   if (iteration >= P.bisection_only_iterations) {
@@ -431,7 +454,8 @@ AMHMVS_HD void pixelOutput(const PatchMatchParams& P, PixelState state, int x, i
   const int index = y * P.width + x;
   const Plane plane = state.plane[index];
   const Vec3 ray = pixelRay(P.K, static_cast<float>(x), static_cast<float>(y));
-  *cost = state.cost[index];
+  // The matching cost alone: the confidence is calibrated on it.
+  *cost = state.cost[index] - priorCost(P, plane, x, y);
   *normal = plane.n;
   *depth = *cost < P.unscored_cost ? planeDepth(plane, ray) : nanf_hd();
 }
