@@ -82,31 +82,23 @@ std::string DepthProblem::validate() const {
           << " (1 channel)\n";
     }
   }
-  const bool has_prior_depth = prior_depth.data != nullptr, has_prior_normal = prior_normal.data != nullptr;
-  if (has_prior_depth != has_prior_normal) {
-    why << "prior depth and prior normal map must be given together\n";
-  } else if (has_prior_depth &&
-             (prior_depth.channels != 1 || prior_normal.channels != 3 ||
-              !prior_depth.sameSize(reference_camera.width, reference_camera.height) ||
-              !prior_normal.sameSize(reference_camera.width, reference_camera.height))) {
-    why << "prior depth (" << prior_depth.width << "x" << prior_depth.height << "x" << prior_depth.channels
-        << ") and normal (" << prior_normal.width << "x" << prior_normal.height << "x" << prior_normal.channels
-        << ") maps must be 1 and 3 channels at the reference size " << reference_camera.width << "x"
-        << reference_camera.height << "\n";
-  }
-  const bool has_planar_depth = planar_prior_depth.data != nullptr;
-  if (has_planar_depth != (planar_prior_normal.data != nullptr)) {
-    why << "planar prior depth and normal maps must be given together\n";
-  } else if (has_planar_depth &&
-             (planar_prior_depth.channels != 1 || planar_prior_normal.channels != 3 ||
-              !planar_prior_depth.sameSize(reference_camera.width, reference_camera.height) ||
-              !planar_prior_normal.sameSize(reference_camera.width, reference_camera.height))) {
-    why << "planar prior depth (" << planar_prior_depth.width << "x" << planar_prior_depth.height << "x"
-        << planar_prior_depth.channels << ") and normal (" << planar_prior_normal.width << "x"
-        << planar_prior_normal.height << "x" << planar_prior_normal.channels
-        << ") maps must be 1 and 3 channels at the reference size " << reference_camera.width << "x"
-        << reference_camera.height << "\n";
-  }
+  // A plane map (depth and normals at the reference size), named by `label`.
+  const auto check_plane_map = [&](const char* label, const ImageViewF& depth, const ImageViewF& normal) {
+    if ((depth.data != nullptr) != (normal.data != nullptr)) {
+      why << label << " depth and " << label << " normal map must be given together\n";
+    } else if (depth.data != nullptr &&
+               (depth.channels != 1 || normal.channels != 3 ||
+                !depth.sameSize(reference_camera.width, reference_camera.height) ||
+                !normal.sameSize(reference_camera.width, reference_camera.height))) {
+      why << label << " depth (" << depth.width << "x" << depth.height << "x" << depth.channels << ") and normal ("
+          << normal.width << "x" << normal.height << "x" << normal.channels
+          << ") maps must be 1 and 3 channels at the reference size " << reference_camera.width << "x"
+          << reference_camera.height << "\n";
+    }
+  };
+  check_plane_map("prior", prior_depth, prior_normal);
+  check_plane_map("planar prior", planar_prior_depth, planar_prior_normal);
+  const bool has_prior_depth = prior_depth.data != nullptr;
   if (coarser) {
     const CoarserScale& c = *coarser;
     if (has_prior_depth) why << "a coarser scale's planes and a prior depth map cannot both start an estimate\n";
