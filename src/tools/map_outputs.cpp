@@ -627,7 +627,7 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
     accuracy.add("confidence_level", number(options_.pipeline.mapper.confidence.min_probability));
     summary.add("published_depth_accuracy", accuracy.object());
   }
-  // The weakly textured pixels alone (eval/depth_metrics.h's weakTextureMask).
+  // The weakly textured pixels alone (core/texture.h).
   const DepthComparison weak = pooledComparison(weak_accuracy_);
   const DepthComparison weak_published = pooledPublished(weak_accuracy_, weak_published_accuracy_);
   if (weak_accuracy_.empty()) {
