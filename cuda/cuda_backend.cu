@@ -381,22 +381,22 @@ DepthMap estimateOnCuda(CudaState& state, const PatchMatchOptions& options, cons
       P.source_depths = work.source_depths.get();
     }
     if (problem.coarser) carryCoarserPlanes(state, problem, coarser_on_device, &P);
-    if (problem.prior_depth.data) {
-      work.prior_depth.reserve(pixels);
-      work.prior_normal.reserve(3 * pixels);
-      work.prior_depth.uploadAsync(problem.prior_depth.data, pixels, stream);
-      work.prior_normal.uploadAsync(problem.prior_normal.data, 3 * pixels, stream);
-      P.prior_depth = work.prior_depth.get();
-      P.prior_normal = work.prior_normal.get();
-    }
-    if (problem.planar_prior_depth.data) {
-      work.planar_depth.reserve(pixels);
-      work.planar_normal.reserve(3 * pixels);
-      work.planar_depth.uploadAsync(problem.planar_prior_depth.data, pixels, stream);
-      work.planar_normal.uploadAsync(problem.planar_prior_normal.data, 3 * pixels, stream);
-      P.planar.depth = work.planar_depth.get();
-      P.planar.normal = work.planar_normal.get();
-    }
+    // A plane map of the problem (depth, 3-channel normals) into device buffers.
+    const auto uploadPlaneMap = [&](const ImageViewF& depth, const ImageViewF& normal,
+                                    cuda::DeviceBuffer<float>* device_depth, cuda::DeviceBuffer<float>* device_normal,
+                                    const float** depth_out, const float** normal_out) {
+      if (!depth.data) return;
+      device_depth->reserve(pixels);
+      device_normal->reserve(3 * pixels);
+      device_depth->uploadAsync(depth.data, pixels, stream);
+      device_normal->uploadAsync(normal.data, 3 * pixels, stream);
+      *depth_out = device_depth->get();
+      *normal_out = device_normal->get();
+    };
+    uploadPlaneMap(problem.prior_depth, problem.prior_normal, &work.prior_depth, &work.prior_normal, &P.prior_depth,
+                   &P.prior_normal);
+    uploadPlaneMap(problem.planar_prior_depth, problem.planar_prior_normal, &work.planar_depth, &work.planar_normal,
+                   &P.planar.depth, &P.planar.normal);
     const PixelState pixel_state{work.planes.get(), work.costs.get(), work.selected.get(), work.best_view.get()};
     const GpuSampler sampler{work.reference.get(), width, height, pool.texture()};
     state.uploaded.record(stream);

@@ -143,14 +143,6 @@ AMHMVS_HD float priorCost(const PatchMatchParams& P, const Plane& plane, int x, 
   return planarPriorCost(P.planar, y * P.width + x, planeDepth(plane, ray), plane.n);
 }
 
-// The planar prior's plane at pixel `index` when there is one, else false.
-AMHMVS_HD bool planarPriorPlane(const PatchMatchParams& P, int index, float* depth, Vec3* normal) {
-  if (!P.planar.depth || !(P.planar.depth[index] > 0.0f)) return false;
-  *depth = P.planar.depth[index];
-  *normal = {P.planar.normal[3 * index], P.planar.normal[3 * index + 1], P.planar.normal[3 * index + 2]};
-  return true;
-}
-
 // The start's plane at pixel `index` when it is usable, else false.
 AMHMVS_HD bool priorPlane(const PatchMatchParams& P, int index, Vec3 ray, Plane* plane) {
   if (!P.prior_depth) return false;
@@ -403,7 +395,7 @@ AMHMVS_HD void updatePixel(const PatchMatchParams& P, const SourceGeometry* sour
   // The planar prior's own plane.
   float planar_depth;
   Vec3 planar_normal;
-  if (planarPriorPlane(P, index, &planar_depth, &planar_normal)) tryHypothesis(planar_depth, planar_normal);
+  if (planarPriorAt(P.planar, index, &planar_depth, &planar_normal)) tryHypothesis(planar_depth, planar_normal);
   // COLMAP-style: perturbed and random depth and normal, in the combinations
   // where neither, one or both of the current values are close to the truth.
   if (iteration >= P.bisection_only_iterations) {

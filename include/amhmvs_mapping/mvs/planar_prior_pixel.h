@@ -28,12 +28,20 @@ struct PlanarPriorTerm {
   float inv_normal_sigma_squared = 0;  // 1 / sigma_n^2 (radians)
 };
 
+// The prior's plane at pixel `index` (its depth on the pixel's ray and its
+// normal), or false where there is none.
+AMHMVS_HD bool planarPriorAt(const PlanarPriorTerm& prior, int index, float* depth, Vec3* normal) {
+  if (!prior.depth || !(prior.depth[index] > 0.0f)) return false;
+  *depth = prior.depth[index];
+  *normal = {prior.normal[3 * index], prior.normal[3 * index + 1], prior.normal[3 * index + 2]};
+  return true;
+}
+
 // 0 where there is no prior (and when it is off: the paper's costs exactly).
 AMHMVS_HD float planarPriorCost(const PlanarPriorTerm& prior, int index, float depth, Vec3 normal) {
-  if (!prior.depth) return 0.0f;
-  const float prior_depth = prior.depth[index];
-  if (!(prior_depth > 0.0f)) return 0.0f;
-  const Vec3 prior_normal = {prior.normal[3 * index], prior.normal[3 * index + 1], prior.normal[3 * index + 2]};
+  float prior_depth;
+  Vec3 prior_normal;
+  if (!planarPriorAt(prior, index, &prior_depth, &prior_normal)) return 0.0f;
   const float e_d = (depth - prior_depth) / prior_depth * prior.inv_depth_sigma;
   const float e_n_squared = 2.0f * (1.0f - dot(normal, prior_normal)) * prior.inv_normal_sigma_squared;
   return prior.weight * (1.0f - expf(-0.5f * (e_d * e_d + e_n_squared)));
