@@ -7,8 +7,10 @@
 #include <chrono>
 #include <cmath>
 #include <sstream>
+#include <tuple>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/core/median.h"
 #include "amhmvs_mapping/mapping/direct_alignment_pixel.h"
 
 namespace amhmvs {
@@ -271,6 +273,28 @@ double medianOffset(const std::vector<mvs::AlignmentPoint>& points, const Relati
   return differences[differences.size() / 2];
 }
 
+// Median |shift| of the points' reference pixels from `from` to `to`, across
+// and along `from`'s epipolar lines.
+std::pair<double, double> medianShifts(const std::vector<mvs::AlignmentPoint>& points, const Relative& from,
+                                       const Relative& to, const Eigen::Matrix3d& K) {
+  std::vector<double> across, along;
+  const Eigen::Vector3d epipole = K * from.t;
+  for (const mvs::AlignmentPoint& point : points) {
+    const Eigen::Vector3d p(point.point.x, point.point.y, point.point.z);
+    const Eigen::Vector3d a = K * (from.R * p + from.t), b = K * (to.R * p + to.t);
+    if (!(a.z() > 0) || !(b.z() > 0)) continue;
+    const Eigen::Vector2d ua = a.hnormalized(), ub = b.hnormalized();
+    const Eigen::Vector3d line = Eigen::Vector3d(ua.x(), ua.y(), 1).cross(epipole);
+    const double norm = line.head<2>().norm();
+    if (!(norm > 0)) continue;
+    const Eigen::Vector2d n = line.head<2>() / norm, d = ub - ua;
+    across.push_back(std::abs(d.dot(n)));
+    along.push_back((d - d.dot(n) * n).norm());
+  }
+  if (across.empty()) return {0, 0};
+  return {medianOf(across), medianOf(along)};
+}
+
 SourceAlignment alignSource(const PinholeCamera& reference_camera, const std::vector<ImageF>& reference_pyramid,
                             const ImageViewU8& source_image, const std::vector<Eigen::Vector3f>& surface,
                             PinholeCamera* source_camera,
@@ -314,6 +338,7 @@ SourceAlignment alignSource(const PinholeCamera& reference_camera, const std::ve
   aligned.t = relative.R.transpose() * (reference_camera.t - relative.t);
   out.correction_m = (aligned.center() - source_camera->center()).norm();
   out.correction_deg = rotationAngleDeg(aligned.R * source_camera->R.transpose());
+  std::tie(out.shift_across_px, out.shift_along_px) = medianShifts(finest, tracker, relative, relative.K);
   // Compared with the tracker's pose at its best brightness (the offset alone
   // must not count as an improvement).
   Relative tracker_lit = tracker;

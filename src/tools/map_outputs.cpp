@@ -234,6 +234,8 @@ std::string alignmentSourcesJson(const DirectAlignmentResult& alignment, const s
     fields.add("rms_after_grey", number(source.rms_after_grey));
     fields.add("correction_mm", number(1000 * source.correction_m));
     fields.add("correction_deg", number(source.correction_deg));
+    fields.add("shift_across_px", number(source.shift_across_px));
+    fields.add("shift_along_px", number(source.shift_along_px));
     fields.add("gain", number(source.gain));
     fields.add("bias", number(source.bias));
     fields.add("outcome", quoted(sourceAlignmentOutcomeName(source.outcome)));

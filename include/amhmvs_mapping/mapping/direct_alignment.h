@@ -65,6 +65,9 @@ struct SourceAlignment {
   double rms_after_grey = 0;      // at the aligned pose and brightness (when aligned)
   double correction_m = 0;        // shift of the source's centre
   double correction_deg = 0;      // rotation of the source
+  // Median image shift of the points that the correction makes in the
+  // reference, across and along the tracker's epipolar lines (pixels).
+  double shift_across_px = 0, shift_along_px = 0;
   double gain = 1, bias = 0;      // the brightness change, reference = gain * source + bias
   SourceAlignmentOutcome outcome = SourceAlignmentOutcome::kNoDepth;
 };

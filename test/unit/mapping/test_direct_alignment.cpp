@@ -67,6 +67,13 @@ TEST_F(DirectAlignmentScene, RemovesAKnownPoseErrorOfASource) {
   EXPECT_LT(after, 0.1);
   EXPECT_LT(exact_after, 0.1);  // aligned or kept: either way where it was
   EXPECT_LT(moved.rms_after_grey, 0.5 * moved.rms_before_grey);
+  // The reported image shift of the correction is the error it removed
+  // (seen in the reference instead of the source, median instead of mean).
+  const double shift = std::hypot(moved.shift_across_px, moved.shift_along_px);
+  std::cout << "reported shift: " << moved.shift_across_px << " across, " << moved.shift_along_px << " along the lines\n";
+  EXPECT_GT(shift, 0.7 * before);
+  EXPECT_LT(shift, 1.3 * before);
+  EXPECT_LT(std::hypot(result.sources[1].shift_across_px, result.sources[1].shift_along_px), 0.1);
   // Same exposure: mid-grey stays where it was (gain and offset trade off
   // over the image's range, so they are checked together).
   EXPECT_NEAR(moved.gain * 128 + moved.bias, 128, 1.0);
@@ -91,6 +98,9 @@ TEST_F(DirectAlignmentScene, AcrossEpipolarLinesOnlyLeavesTheMotionAlongThem) {
   EXPECT_EQ(result.sources[0].outcome, SourceAlignmentOutcome::kAligned);
   EXPECT_GT(across_before, 1.0);
   EXPECT_LT(across_after, 0.1);
+  std::cout << "reported shift: " << result.sources[0].shift_across_px << " across, "
+            << result.sources[0].shift_along_px << " along the lines\n";
+  EXPECT_NEAR(result.sources[0].shift_across_px, across_before, 0.3 * across_before);
   // Along the lines the error is the tracker's still, unobserved (a depth
   // error would look the same).
   EXPECT_GT(motion_after, 0.1);
