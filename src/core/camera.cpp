@@ -25,30 +25,50 @@ PinholeCamera PinholeCamera::resized(int new_width, int new_height) const {
   return out;
 }
 
+namespace {
+
+enum class CameraProblem { kNone, kFocalLengths, kPrincipalPoint, kSize, kPrincipalPointOutside, kPose, kRotation };
+
+double orthogonalityOf(const Eigen::Matrix3d& R) { return (R * R.transpose() - Eigen::Matrix3d::Identity()).norm(); }
+
+CameraProblem firstProblem(const PinholeCamera& c) {
+  if (!(std::isfinite(c.fx) && std::isfinite(c.fy) && c.fx > 0 && c.fy > 0)) return CameraProblem::kFocalLengths;
+  if (!(std::isfinite(c.cx) && std::isfinite(c.cy))) return CameraProblem::kPrincipalPoint;
+  if (c.width <= 0 || c.height <= 0) return CameraProblem::kSize;
+  if (c.cx < 0 || c.cy < 0 || c.cx > c.width || c.cy > c.height) return CameraProblem::kPrincipalPointOutside;
+  if (!c.R.allFinite() || !c.t.allFinite()) return CameraProblem::kPose;
+  // A rotation: orthonormal with determinant +1. The tolerance admits poses
+  // printed with 6 significant digits (as in MVSNet cam files).
+  if (orthogonalityOf(c.R) > 1e-3 || std::abs(c.R.determinant() - 1.0) > 1e-3) return CameraProblem::kRotation;
+  return CameraProblem::kNone;
+}
+
+}  // namespace
+
+// The checks first, the message only for a problem: source selection asks
+// every candidate of a large store.
 std::string PinholeCamera::validate() const {
+  const CameraProblem problem = firstProblem(*this);
+  if (problem == CameraProblem::kNone) return {};
   std::ostringstream why;
-  if (!(std::isfinite(fx) && std::isfinite(fy) && fx > 0 && fy > 0)) {
-    why << "focal lengths must be positive and finite (fx=" << fx << ", fy=" << fy << ")";
-  } else if (!(std::isfinite(cx) && std::isfinite(cy))) {
-    why << "principal point is not finite";
-  } else if (width <= 0 || height <= 0) {
-    why << "image size must be positive (" << width << "x" << height << ")";
-  } else if (cx < 0 || cy < 0 || cx > width || cy > height) {
-    // A principal point off the image means the image is not the one the
-    // intrinsics were calibrated for (wrong file, or a resized image).
-    why << "principal point (" << cx << ", " << cy << ") lies outside the " << width << "x"
-        << height << " image: the image does not match its camera";
-  } else if (!R.allFinite() || !t.allFinite()) {
-    why << "pose contains non-finite values";
-  } else {
-    // A rotation: orthonormal with determinant +1. The tolerance admits poses
-    // printed with 6 significant digits (as in MVSNet cam files).
-    const double orthogonality = (R * R.transpose() - Eigen::Matrix3d::Identity()).norm();
-    const double det = R.determinant();
-    if (orthogonality > 1e-3 || std::abs(det - 1.0) > 1e-3) {
-      why << "pose rotation is not rigid (|R R^T - I| = " << orthogonality
-          << ", det R = " << det << ")";
-    }
+  switch (problem) {
+    case CameraProblem::kFocalLengths:
+      why << "focal lengths must be positive and finite (fx=" << fx << ", fy=" << fy << ")";
+      break;
+    case CameraProblem::kPrincipalPoint: why << "principal point is not finite"; break;
+    case CameraProblem::kSize: why << "image size must be positive (" << width << "x" << height << ")"; break;
+    case CameraProblem::kPrincipalPointOutside:
+      // A principal point off the image means the image is not the one the
+      // intrinsics were calibrated for (wrong file, or a resized image).
+      why << "principal point (" << cx << ", " << cy << ") lies outside the " << width << "x" << height
+          << " image: the image does not match its camera";
+      break;
+    case CameraProblem::kPose: why << "pose contains non-finite values"; break;
+    case CameraProblem::kRotation:
+      why << "pose rotation is not rigid (|R R^T - I| = " << orthogonalityOf(R) << ", det R = " << R.determinant()
+          << ")";
+      break;
+    case CameraProblem::kNone: break;
   }
   return why.str();
 }

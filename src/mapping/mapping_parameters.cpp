@@ -145,13 +145,14 @@ const Table<KeyframeStoreOptions>& storeTable() {
       {"max_memory_mb", "MiB of images, depth maps and points kept; 0 = no bound",
        [](const O& o) {
          std::ostringstream out;
+         if (o.max_bytes == std::numeric_limits<size_t>::max()) return std::string("0");
          out << static_cast<double>(o.max_bytes) / (1 << 20);
          return out.str();
        },
        [](O& o, const std::string& text) {
          const double mib = parseOptionNumber<double>("max_memory_mb", text);
          if (!(mib >= 0) || !std::isfinite(mib)) throw InputError("option max_memory_mb: '" + text + "' must be >= 0");
-         o.max_bytes = static_cast<size_t>(mib * (1 << 20));
+         o.max_bytes = mib == 0 ? std::numeric_limits<size_t>::max() : static_cast<size_t>(mib * (1 << 20));
        }},
   };
   return table;
@@ -172,6 +173,9 @@ const Table<SourceSelectionOptions>& sourcesTable() {
       withAlias(advanced(numberField<O, double>("preferred_angle_deg", &O::preferred_angle_deg,
                                                 "best triangulation angle of the ranking")),
                 "preferred_angle_deg"),
+      advanced(numberField<O, int>("max_candidates", &O::max_candidates,
+                                   "stored keyframes evaluated in full per selection (the overlap grid), the best "
+                                   "at the image centre; bounds the cost as the store grows")),
       advanced(switchField<O>("match_when_unknown", &O::match_when_unknown,
                               "the first pair's scene depth from patches matched along epipolar lines")),
       withAlias(advanced(numberField<O, double>("default_scene_depth", &O::default_scene_depth,

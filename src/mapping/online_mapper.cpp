@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
@@ -100,6 +101,7 @@ KeyframeResult OnlineMapper::process(Keyframe keyframe, bool next_follows) {
   KeyframeResult result;
   result.id = keyframe.id;
   result.camera = keyframe.camera;
+  newest_centre_ = keyframe.camera.center();
   noteEvicted(store_.add(std::move(keyframe)), &result);
   rolling_shutter_.rectifyStored(result.id, estimates_started_, &store_);
   handOutUndelivered(&result);
@@ -158,6 +160,7 @@ std::vector<RefinedDepth> OnlineMapper::observe(const Keyframe& frame) {
 std::vector<int64_t> OnlineMapper::addSourceView(Keyframe keyframe) {
   KeyframeResult result;
   const int64_t id = keyframe.id;
+  newest_centre_ = keyframe.camera.center();
   noteEvicted(store_.add(std::move(keyframe)), &result);
   rolling_shutter_.rectifyStored(id, estimates_started_, &store_);
   markSourceOnly(id, &result);
@@ -229,14 +232,31 @@ bool OnlineMapper::refine(KeyframeResult* result) {
   fuseDeferredNow();  // first: it may evict what a refinement would read
   if (options_.refinement.max_refinements == 0) return fuseDeferred(result);
   const Clock::time_point start = Clock::now();
+  // The keyframes that may choose anew this call: those nearest the newest
+  // keyframe (a selection can only gain from keyframes near it, and the
+  // newest is what changed), at most kSelectionsPerRefineCall of them.
+  const auto due = [this](const KeyframeRecord& record) {
+    return record.refinements < options_.refinement.max_refinements &&
+           record.selection_checked_at != store_.revision();  // else what selection reads has not changed
+  };
+  std::vector<std::pair<double, int64_t>> nearest;
+  for (const auto& [id, record] : records_) {
+    if (due(record) && store_.contains(id))
+      nearest.emplace_back((store_.keyframe(id).camera.center() - newest_centre_).norm(), id);
+  }
+  if (nearest.size() > static_cast<size_t>(kSelectionsPerRefineCall)) {
+    std::nth_element(nearest.begin(), nearest.begin() + kSelectionsPerRefineCall, nearest.end());
+    nearest.resize(kSelectionsPerRefineCall);
+  }
+  std::set<int64_t> may_choose;
+  for (const auto& entry : nearest) may_choose.insert(entry.second);
   for (auto& [id, record] : records_) {
     if (stereoPosesMoved(id, record)) {
       ++record.pose_reestimates;
       estimateStored(id, selectSources(store_, id, options_.sources), /*late=*/false, start, result);
       return true;
     }
-    if (record.refinements >= options_.refinement.max_refinements) continue;
-    if (record.selection_checked_at == store_.revision()) continue;  // what selection reads has not changed
+    if (!may_choose.count(id)) continue;
     SourceSelection selection = selectSources(store_, id, options_.sources);
     record.selection_checked_at = store_.revision();
     std::vector<int64_t> before = record.sources, now = selection.source_ids;

@@ -46,14 +46,32 @@ SceneDepth fromKeyframe(const Keyframe& keyframe, const SceneDepthOptions& optio
   return {};
 }
 
-// Rule 4: other keyframes' depth maps reprojected into `camera`.
+// Sorts `ids` by the distance of their keyframe's centre from `centre`
+// (ties by id).
+void sortByDistance(const KeyframeStore& store, const Eigen::Vector3d& centre, std::vector<int64_t>* ids) {
+  std::vector<std::pair<double, int64_t>> keyed;
+  keyed.reserve(ids->size());
+  for (int64_t id : *ids) keyed.emplace_back((store.keyframe(id).camera.center() - centre).norm(), id);
+  std::sort(keyed.begin(), keyed.end());
+  for (size_t i = 0; i < keyed.size(); ++i) (*ids)[i] = keyed[i].second;
+}
+
+// Rule 4: the depth maps of the nearest other keyframes that look the same
+// way, reprojected into `camera` (a few views give a median; more would make
+// the cost grow with the store).
 std::vector<double> reprojectedDepths(const KeyframeStore& store, const PinholeCamera& camera,
-                                      const std::vector<int64_t>& other_ids) {
+                                      std::vector<int64_t> other_ids) {
+  constexpr int kViews = 8;
+  sortByDistance(store, camera.center(), &other_ids);
   std::vector<double> depths;
+  int views = 0;
   for (int64_t other : other_ids) {
+    if (views >= kViews) break;
     const StoredKeyframe& stored = store.entry(other);
     const PinholeCamera& other_camera = stored.keyframe.camera;
     if (!stored.depth->depth.sameSize(other_camera.width, other_camera.height)) continue;
+    if (other_camera.viewingDirection().dot(camera.viewingDirection()) <= 0) continue;
+    ++views;
     const RelativePose to_target = relativePose(other_camera, camera);
     forSampledDepths(stored.depth->depth, [&](int x, int y, double d) {
       addDepthIfSeen(camera, to_target.R * other_camera.backproject(x, y, d) + to_target.t, &depths);
@@ -68,8 +86,7 @@ std::vector<double> matchedDepths(const KeyframeStore& store, int64_t id, std::v
   const StoredKeyframe& target = store.entry(id);
   const Eigen::Vector3d centre = target.keyframe.camera.center();
   const auto distance = [&](int64_t other) { return (store.keyframe(other).camera.center() - centre).norm(); };
-  std::stable_sort(other_ids.begin(), other_ids.end(),
-                   [&](int64_t a, int64_t b) { return distance(a) < distance(b); });
+  sortByDistance(store, centre, &other_ids);
   std::vector<double> depths;
   int views = 0;
   for (int64_t other : other_ids) {

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
+#include <cstdio>
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
@@ -17,17 +17,19 @@ constexpr double kRadToDeg = 180.0 / M_PI;
 // triangulation angle) a pair is treated as pure rotation.
 constexpr double kMinRelativeBaseline = 1e-3;
 
+// Numbers for the rejection messages, without a stream (a large store
+// rejects hundreds of candidates per selection).
 std::string fixed(double value, int digits) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(digits) << value;
-  return out.str();
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.*f", digits, value);
+  return text;
 }
 
 // Compact number for messages: "1", "0.3", "12.5".
 std::string compact(double value) {
-  std::ostringstream out;
-  out << std::setprecision(4) << value;
-  return out.str();
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.4g", value);
+  return text;
 }
 
 double angleBetweenDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
@@ -42,8 +44,10 @@ double preferenceScore(double angle_deg, const SourceSelectionOptions& options) 
   return std::exp(-diff * diff / (2 * sigma * sigma));
 }
 
-SourceViewCandidate evaluate(const Keyframe& target, const std::vector<Eigen::Vector3d>& grid_world,
-                             double scene_depth, const Keyframe& candidate,
+// The checks that need no grid: the candidate's camera, the baseline against
+// pure rotation, the optical axes. Fills id, baseline_m and axis_angle_deg;
+// the rejection is empty when the candidate passes.
+SourceViewCandidate precheck(const Keyframe& target, double scene_depth, const Keyframe& candidate,
                              const SourceSelectionOptions& options) {
   SourceViewCandidate result;
   result.id = candidate.id;
@@ -52,12 +56,27 @@ SourceViewCandidate evaluate(const Keyframe& target, const std::vector<Eigen::Ve
     result.rejection = "invalid camera: " + camera_problem;
     return result;
   }
-  const Eigen::Vector3d target_centre = target.camera.center();
-  const Eigen::Vector3d candidate_centre = candidate.camera.center();
-  result.baseline_m = (candidate_centre - target_centre).norm();
+  result.baseline_m = (candidate.camera.center() - target.camera.center()).norm();
   result.axis_angle_deg =
       angleBetweenDeg(target.camera.viewingDirection(), candidate.camera.viewingDirection());
+  if (result.baseline_m < kMinRelativeBaseline * scene_depth) {
+    result.rejection =
+        (result.axis_angle_deg < 0.01 ? "duplicate pose: baseline " : "pure rotation: baseline ") +
+        fixed(result.baseline_m, 3) + " m at scene depth " + fixed(scene_depth, 2) + " m";
+  } else if (result.axis_angle_deg > options.max_axis_angle_deg) {
+    result.rejection = "optical axes " + fixed(result.axis_angle_deg, 0) + " deg apart > " +
+                       compact(options.max_axis_angle_deg);
+  }
+  return result;
+}
 
+// The grid checks of a candidate that passed precheck(): overlap and
+// triangulation angle, then the score.
+SourceViewCandidate evaluate(const Keyframe& target, const std::vector<Eigen::Vector3d>& grid_world,
+                             const Keyframe& candidate, SourceViewCandidate result,
+                             const SourceSelectionOptions& options) {
+  const Eigen::Vector3d target_centre = target.camera.center();
+  const Eigen::Vector3d candidate_centre = candidate.camera.center();
   std::vector<double> angles;
   angles.reserve(grid_world.size());
   for (const Eigen::Vector3d& point : grid_world) {
@@ -75,14 +94,7 @@ SourceViewCandidate evaluate(const Keyframe& target, const std::vector<Eigen::Ve
       angles.empty() ? triangulationAngle(target_centre, candidate_centre, middle) * kRadToDeg
                      : medianOf(angles);
 
-  if (result.baseline_m < kMinRelativeBaseline * scene_depth) {
-    result.rejection =
-        (result.axis_angle_deg < 0.01 ? "duplicate pose: baseline " : "pure rotation: baseline ") +
-        fixed(result.baseline_m, 3) + " m at scene depth " + fixed(scene_depth, 2) + " m";
-  } else if (result.axis_angle_deg > options.max_axis_angle_deg) {
-    result.rejection = "optical axes " + fixed(result.axis_angle_deg, 0) + " deg apart > " +
-                       compact(options.max_axis_angle_deg);
-  } else if (result.overlap < options.min_overlap) {
+  if (result.overlap < options.min_overlap) {
     result.rejection = "overlap " + fixed(100 * result.overlap, 0) + " % < " +
                        compact(100 * options.min_overlap) + " %";
   } else if (result.triangulation_angle_deg < options.min_triangulation_angle_deg) {
@@ -128,6 +140,9 @@ std::string SourceSelectionOptions::validate() const {
   if (overlap_grid < 2 || overlap_grid > 1000) {
     why << "overlap_grid must be in [2, 1000] (got " << overlap_grid << ")\n";
   }
+  if (max_candidates < max_sources) {
+    why << "max_candidates must be at least max_sources (got " << max_candidates << " < " << max_sources << ")\n";
+  }
   why << SceneDepthOptions::validate();
   return why.str();
 }
@@ -163,13 +178,58 @@ SourceSelection selectAtDepth(const Keyframe& target, const std::vector<const Ke
   }
 
   std::vector<SourceViewCandidate> qualified, rejected;
+  std::vector<std::pair<SourceViewCandidate, const Keyframe*>> passed;
   for (const Keyframe* candidate : candidates) {
     if (candidate == nullptr) {
       throw InputError("source selection: keyframe " + std::to_string(target.id) +
                        ": null candidate");
     }
     if (candidate->id == target.id) continue;
-    SourceViewCandidate evaluated = evaluate(target, grid_world, depth, *candidate, options);
+    SourceViewCandidate checked = precheck(target, depth, *candidate, options);
+    if (checked.rejection.empty()) {
+      passed.emplace_back(std::move(checked), candidate);
+    } else {
+      rejected.push_back(std::move(checked));
+    }
+  }
+  if (static_cast<int>(passed.size()) > options.max_candidates) {
+    // The ranking's own terms at one point, the target's centre pixel at the
+    // scene depth: seen by the candidate first, then the triangulation
+    // angle's distance from the preferred one in units of the ranking's sigma.
+    const Eigen::Vector3d target_centre = camera.center();
+    const Eigen::Vector3d ahead = grid_world.size() % 2 == 1
+                                      ? grid_world[grid_world.size() / 2]
+                                      : camera.R.transpose() * (camera.backproject(0.5 * (camera.width - 1),
+                                                                                   0.5 * (camera.height - 1), depth) -
+                                                                camera.t);
+    const auto key = [&](const std::pair<SourceViewCandidate, const Keyframe*>& entry) {
+      const PinholeCamera& other = entry.second->camera;
+      const Eigen::Vector3d in_other = other.toCamera(ahead);
+      const bool seen = in_other.z() > 0 && other.contains(other.project(in_other));
+      const double angle = triangulationAngle(target_centre, other.center(), ahead) * kRadToDeg;
+      const double sigma = angle <= options.preferred_angle_deg ? options.sigma_below_deg : options.sigma_above_deg;
+      return std::make_pair(seen ? 0 : 1, std::abs(angle - options.preferred_angle_deg) / sigma);
+    };
+    std::vector<std::pair<std::pair<int, double>, size_t>> order;
+    for (size_t i = 0; i < passed.size(); ++i) order.emplace_back(key(passed[i]), i);
+    std::sort(order.begin(), order.end(), [&](const auto& a, const auto& b) {
+      return a.first != b.first ? a.first < b.first : passed[a.second].first.id < passed[b.second].first.id;
+    });
+    std::vector<std::pair<SourceViewCandidate, const Keyframe*>> kept;
+    for (size_t rank = 0; rank < order.size(); ++rank) {
+      auto& entry = passed[order[rank].second];
+      if (static_cast<int>(rank) < options.max_candidates) {
+        kept.push_back(std::move(entry));
+        continue;
+      }
+      entry.first.rejection = "not among the " + std::to_string(options.max_candidates) +
+                              " candidates nearest the preferred angle at the image centre";
+      rejected.push_back(std::move(entry.first));
+    }
+    passed.swap(kept);
+  }
+  for (auto& [checked, candidate] : passed) {
+    SourceViewCandidate evaluated = evaluate(target, grid_world, *candidate, std::move(checked), options);
     (evaluated.rejection.empty() ? qualified : rejected).push_back(std::move(evaluated));
   }
   std::sort(qualified.begin(), qualified.end(),

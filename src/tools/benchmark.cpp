@@ -9,7 +9,7 @@
 // usage: amhmvs_benchmark [DATA_DIR] [--out FILE] [--runs N] [--cpu-threads N] [--quick]
 //                         [--only SCENE[,SCENE...]]  (fountain_x0.25 ... fountain_x1,
 //                                           synthetic, scaling, cpu, multiscale, cpu-scaling,
-//                                           fusion, map, pipeline, replay, pose)
+//                                           fusion, map, pipeline, store, replay, pose)
 //                         [--replay N]     keyframes of the memory replay (10000)
 //                         [--map-foreground] the replay updates the voxel map in its own thread
 //                         [--pipeline-multiscale N[,K]] the pipeline's estimator at N scales,
@@ -22,6 +22,9 @@
 //   map:      VoxelMap::addKeyframe alone, 640x480 keyframes of true points;
 //   pipeline: a 640x480 room sequence, push + step per keyframe, with 4 and 8
 //             sources: keyframes per second end to end and the median stages;
+//   store:    1100 keyframes of 160x120 (80x60 without a GPU), every one kept:
+//             the per-keyframe stages and the idle step at 50, 200, 500 and
+//             1000 stored keyframes (must stay flat);
 //   replay:   N keyframes of 160x120 through one pipeline; host RSS and
 //             device memory every N/10 keyframes (must stay flat).
 // The scaling rows time the synthetic scene at 4 sizes x 3 source counts; the
@@ -44,6 +47,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -400,6 +404,91 @@ std::string pipelineTable(int keyframe_count, Multiscale multiscale) {
   return out.str();
 }
 
+// Per-keyframe cost against the store's size: `count` keyframes of a room
+// loop (100 poses, shifted 1 mm per lap, as the replay) through one pipeline
+// whose store keeps them all, without depth ranges (the scene depth and the
+// depth range come from the stored depth maps, as in pose input). Per
+// keyframe: the step that processes it, then one idle step (late depth maps,
+// refinements, fusions again), each timed; medians over the keyframes
+// processed while the store held size +- 10 %.
+std::string storeTable(int count, int width, int height, Multiscale multiscale) {
+  std::ostringstream out;
+  out << "\n## Per-keyframe cost against the store's size: " << count << " keyframes of " << width << "x" << height
+      << ", 4 sources, every keyframe kept\n\n"
+      << "Medians over the keyframes processed while the store held the given number (+- 10 %): the keyframe's step, "
+         "its stages, the idle step after it (late depth maps, refinements, fusions again), and keyframes/s as "
+         "1000 / (keyframe step + idle step).\n\n"
+      << "| stored keyframes | keyframes/s | keyframe step ms | selection | depth range | estimate | fusion | "
+         "confidence | map | idle step ms |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  const int lap = 100;
+  std::vector<Keyframe> loop = roomKeyframes(lap, width, height, 3);
+  PipelineOptions options = pipelineOptions(4, multiscale);
+  options.mapper.store.max_keyframes = count;
+  options.mapper.store.max_bytes = std::numeric_limits<size_t>::max();
+  MappingPipeline pipeline(options);
+  struct Sample {
+    size_t stored;
+    double step, selection, range, estimate, fusion, confidence, map, idle;
+  };
+  std::vector<Sample> samples;
+  for (int i = 0; i < count; ++i) {
+    Keyframe keyframe = loop[i % lap];
+    keyframe.id = i;
+    keyframe.stamp = 0.1 * i;
+    keyframe.depth_min = keyframe.depth_max = 0;
+    Eigen::Isometry3d pose = keyframe.cameraToWorld();
+    pose.translation().x() += 0.001 * (i / lap);
+    keyframe.setCameraToWorld(pose);
+    pipeline.push(std::move(keyframe));
+    Sample sample{};
+    const auto step_start = std::chrono::steady_clock::now();
+    const std::vector<PipelineOutput> outputs = pipeline.step();
+    sample.step = millisecondsSince(step_start);
+    const auto idle_start = std::chrono::steady_clock::now();
+    pipeline.step();
+    sample.idle = millisecondsSince(idle_start);
+    for (const PipelineOutput& output : outputs) {
+      const StageTimes& times = output.result.times;
+      if (output.result.id == i) {
+        sample.selection = times.selection_ms;
+        sample.range = times.depth_range_ms;
+        sample.estimate = times.estimate_ms;
+      }
+      sample.fusion += times.fusion_ms;
+      sample.confidence += times.confidence_ms;
+      sample.map += times.map_ms;
+    }
+    sample.stored = pipeline.stats().stored_keyframes;
+    samples.push_back(sample);
+  }
+  for (int size : {50, 200, 500, 1000}) {
+    if (size > count) break;
+    std::vector<double> step, selection, range, estimate, fusion, confidence, map, idle;
+    for (const Sample& sample : samples) {
+      if (std::abs(static_cast<double>(sample.stored) - size) > 0.1 * size) continue;
+      step.push_back(sample.step);
+      selection.push_back(sample.selection);
+      range.push_back(sample.range);
+      estimate.push_back(sample.estimate);
+      fusion.push_back(sample.fusion);
+      confidence.push_back(sample.confidence);
+      map.push_back(sample.map);
+      idle.push_back(sample.idle);
+    }
+    if (step.empty()) continue;
+    char line[300];
+    std::snprintf(line, sizeof(line), "| %d | %.1f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |\n", size,
+                  1000 / (median(step) + median(idle)), median(step), median(selection), median(range),
+                  median(estimate), median(fusion), median(confidence), median(map), median(idle));
+    out << line;
+    std::fprintf(stderr, "%s", line);
+  }
+  const PipelineStats stats = pipeline.stats();
+  out << "\n" << stats.depth_maps << " depth maps (" << stats.refined_depth_maps << " refined), "
+      << stats.droppedTotal() << " dropped, backend " << stats.backend << "\n";
+  return out.str();
+}
+
 // Memory over a long replay: `count` keyframes of 160x120 through one
 // pipeline (a rendered loop of 100 poses, shifted 1 mm per lap so that no
 // two keyframes share a centre).
@@ -507,6 +596,22 @@ int main(int argc, char** argv) {
   std::string only;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      // The usage is the comment at the top of this file.
+      std::printf(
+          "usage: amhmvs_benchmark [DATA_DIR] [--out FILE] [--runs N] [--cpu-threads N] [--quick]\n"
+          "                        [--only SECTION[,SECTION...]] [--replay N] [--map-foreground]\n"
+          "                        [--pipeline-multiscale N[,K]]\n"
+          "sections: fountain_x0.25 fountain_x0.5 fountain_x1 synthetic scaling cpu multiscale cpu-scaling\n"
+          "          fusion map pipeline store replay pose\n"
+          "Writes the tables to FILE (default benchmark.md) after each section and prints them at the end.\n");
+      return 0;
+    }
+    if (!a.empty() && a[0] == '-' && a != "--only" && a != "--out" && a != "--runs" && a != "--cpu-threads" &&
+        a != "--quick" && a != "--replay" && a != "--map-foreground" && a != "--pipeline-multiscale") {
+      std::fprintf(stderr, "amhmvs_benchmark: unknown option '%s' (--help lists them)\n", a.c_str());
+      return 2;
+    }
     if (a == "--only" && i + 1 < argc) {
       only = argv[++i];
       continue;
@@ -609,6 +714,12 @@ int main(int argc, char** argv) {
     if (wants("pose")) {
       online += poseRefinementTable(std::max(runs, 5));
       online += mapCorrectionTable(std::max(runs, 5));
+      save();
+    }
+    if (only.empty() ? !quick : wants("store")) {
+      // Small images: the host-side stages are what grows with the store.
+      online += gpu ? storeTable(quick ? 240 : 1100, 160, 120, pipeline_multiscale)
+                    : storeTable(quick ? 240 : 1100, 80, 60, pipeline_multiscale);
       save();
     }
     if (only.empty() ? !quick : wants("replay")) {

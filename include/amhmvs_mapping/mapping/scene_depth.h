@@ -5,8 +5,9 @@
 //   2. the middle of its given depth range;
 //   3. its own depth map (median of its valid depths, at least
 //      min_depth_samples of them; refinement, fusion);
-//   4. the depth maps of other stored keyframes reprojected into it (median
-//      of those in view, at least min_depth_samples);
+//   4. the depth maps of the 8 nearest other stored keyframes that look the
+//      same way, reprojected into it (median of those in view, at least
+//      min_depth_samples);
 //   5. bootstrap, before any depth exists (the first pair of a run): image
 //      patches matched along epipolar lines in up to max_match_views other
 //      keyframes, nearest centres first (median of the matched depths, at

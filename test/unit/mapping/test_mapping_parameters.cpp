@@ -9,6 +9,7 @@
 #include <fstream>
 #include <functional>
 #include <set>
+#include <limits>
 #include <sstream>
 #include <string>
 
@@ -124,6 +125,17 @@ TEST(MappingParameters, FusionZeroIsOffAndRegionsAreLists) {
   EXPECT_TRUE(std::isinf(p.pipeline.mapper.map.region_min.x()) && p.pipeline.mapper.map.region_min.x() < 0);
   EXPECT_NE(errorOf([&] { setMappingParameter("map/region_max", "[1, 2]", &p); }).find("[x, y, z]"),
             std::string::npos);
+}
+
+TEST(MappingParameters, StoreMemoryZeroIsNoBound) {
+  MappingParameters p;
+  setMappingParameter("store/max_memory_mb", "0", &p);
+  EXPECT_EQ(p.pipeline.mapper.store.max_bytes, std::numeric_limits<size_t>::max());
+  EXPECT_EQ(p.validate(), "");
+  ASSERT_NE(findMappingParameter("store/max_memory_mb"), nullptr);
+  EXPECT_EQ(findMappingParameter("store/max_memory_mb")->get(p), "0");
+  setMappingParameter("store/max_memory_mb", "2", &p);
+  EXPECT_EQ(p.pipeline.mapper.store.max_bytes, size_t{2} << 20);
 }
 
 TEST(MappingParameters, MapToolRunsTheNodeletDefaults) {

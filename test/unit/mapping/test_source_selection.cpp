@@ -95,6 +95,35 @@ TEST(SourceSelection, SidewaysMotionRankedByAngleAndOverlap) {
   EXPECT_EQ(selection.candidates[4].id, 5);
 }
 
+TEST(SourceSelection, ALargeStoreEvaluatesOnlyTheCandidatesNearestThePreferredAngle) {
+  // 401 keyframes along a sideways line and 100 looking the other way: the
+  // bounded evaluation picks what evaluating all of them picks.
+  const Keyframe target = makeTarget();
+  std::vector<Keyframe> keyframes;
+  for (int i = -200; i <= 200; ++i) {
+    if (i != 0) keyframes.push_back(makeKeyframe(static_cast<int64_t>(keyframes.size()) + 1, poseAt(Eigen::Vector3d(0.01 * i, 0.003 * (i % 7), 0))));
+  }
+  for (int i = 0; i < 100; ++i) {
+    Eigen::Isometry3d away = poseAt(Eigen::Vector3d(0.01 * (i + 1), 0, 0));
+    away.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    keyframes.push_back(makeKeyframe(static_cast<int64_t>(keyframes.size()) + 1, away));
+  }
+  SourceSelectionOptions all;
+  all.max_candidates = 10000;
+  const SourceSelection reference = selectSources(target, pointers(keyframes), all);
+  const SourceSelection bounded = selectSources(target, pointers(keyframes));
+  ASSERT_EQ(reference.source_ids.size(), 8u) << reference.reason;
+  EXPECT_EQ(bounded.source_ids, reference.source_ids);
+  ASSERT_EQ(bounded.candidates.size(), keyframes.size());
+  int skipped = 0, axes = 0;
+  for (const SourceViewCandidate& c : bounded.candidates) {
+    if (c.rejection.find("candidates nearest the preferred angle") != std::string::npos) ++skipped;
+    if (c.rejection.rfind("optical axes", 0) == 0) ++axes;
+  }
+  EXPECT_EQ(axes, 100);
+  EXPECT_EQ(skipped, 400 - SourceSelectionOptions().max_candidates);
+}
+
 TEST(SourceSelection, ForwardMotionTriangulatesOffAxis) {
   const Keyframe target = makeTarget();
   std::vector<Keyframe> keyframes = {
