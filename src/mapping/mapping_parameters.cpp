@@ -144,8 +144,8 @@ const Table<KeyframeStoreOptions>& storeTable() {
       numberField("max_keyframes", &O::max_keyframes, "keyframes kept as source views; the oldest are evicted"),
       {"max_memory_mb", "MiB of images, depth maps and points kept; 0 = no bound",
        [](const O& o) {
-         std::ostringstream out;
          if (o.max_bytes == std::numeric_limits<size_t>::max()) return std::string("0");
+         std::ostringstream out;
          out << static_cast<double>(o.max_bytes) / (1 << 20);
          return out.str();
        },

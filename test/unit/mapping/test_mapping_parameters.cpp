@@ -8,8 +8,8 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
-#include <set>
 #include <limits>
+#include <set>
 #include <sstream>
 #include <string>
 

@@ -96,12 +96,14 @@ TEST(SourceSelection, SidewaysMotionRankedByAngleAndOverlap) {
 }
 
 TEST(SourceSelection, ALargeStoreEvaluatesOnlyTheCandidatesNearestThePreferredAngle) {
-  // 401 keyframes along a sideways line and 100 looking the other way: the
+  // 400 keyframes along a sideways line and 100 looking the other way: the
   // bounded evaluation picks what evaluating all of them picks.
   const Keyframe target = makeTarget();
   std::vector<Keyframe> keyframes;
   for (int i = -200; i <= 200; ++i) {
-    if (i != 0) keyframes.push_back(makeKeyframe(static_cast<int64_t>(keyframes.size()) + 1, poseAt(Eigen::Vector3d(0.01 * i, 0.003 * (i % 7), 0))));
+    if (i == 0) continue;  // the target's own place
+    const Eigen::Vector3d centre(0.01 * i, 0.003 * (i % 7), 0);
+    keyframes.push_back(makeKeyframe(static_cast<int64_t>(keyframes.size()) + 1, poseAt(centre)));
   }
   for (int i = 0; i < 100; ++i) {
     Eigen::Isometry3d away = poseAt(Eigen::Vector3d(0.01 * (i + 1), 0, 0));
