@@ -366,6 +366,30 @@ std::vector<int64_t> sortedSources(const KeyframeResult& result) {
   return ids;
 }
 
+TEST(OnlineMapper, RefineChoosesAnewNearTheNewestKeyframeFirstAndReachesTheRestLater) {
+  // 30 keyframes along the wall, none refined meanwhile: each was estimated
+  // with earlier keyframes only, so each gains from its successors.
+  OnlineMapper mapper(wallOptions(), wallDepth);
+  KeyframeResult result;
+  constexpr int kCount = 30;
+  for (int i = 0; i < kCount; ++i) {
+    mapper.process(keyframeAt(i, 0.5 * i));
+    if (i == 1) ASSERT_TRUE(mapper.estimateLate(&result));
+  }
+  // The first call looks only at the 16 keyframes nearest the newest (14..29).
+  ASSERT_TRUE(mapper.refine(&result));
+  EXPECT_TRUE(result.refined);
+  EXPECT_GE(result.id, kCount - OnlineMapper::kSelectionsPerRefineCall);
+  // Further calls reach the far end too.
+  std::set<int64_t> refined = {result.id};
+  for (int call = 0; call < 200; ++call) {
+    KeyframeResult next;
+    if (mapper.refine(&next) && next.refined) refined.insert(next.id);
+  }
+  EXPECT_TRUE(refined.count(0)) << "keyframe 0 never refined";
+  EXPECT_TRUE(refined.count(1)) << "keyframe 1 never refined";
+}
+
 TEST(OnlineMapper, RefineReestimatesAKeyframeOnceWhenLaterKeyframesGiveBetterSources) {
   std::vector<size_t> source_counts;  // per estimate call
   OnlineMapper mapper(wallOptions(), [&](const DepthProblem& problem) {
