@@ -197,11 +197,8 @@ SourceSelection selectAtDepth(const Keyframe& target, const std::vector<const Ke
     // scene depth: seen by the candidate first, then the triangulation
     // angle's distance from the preferred one in units of the ranking's sigma.
     const Eigen::Vector3d target_centre = camera.center();
-    const Eigen::Vector3d ahead = grid_world.size() % 2 == 1
-                                      ? grid_world[grid_world.size() / 2]
-                                      : camera.R.transpose() * (camera.backproject(0.5 * (camera.width - 1),
-                                                                                   0.5 * (camera.height - 1), depth) -
-                                                                camera.t);
+    const Eigen::Vector3d ahead =
+        camera.R.transpose() * (camera.backproject(0.5 * (camera.width - 1), 0.5 * (camera.height - 1), depth) - camera.t);
     const auto key = [&](const std::pair<SourceViewCandidate, const Keyframe*>& entry) {
       const PinholeCamera& other = entry.second->camera;
       const Eigen::Vector3d in_other = other.toCamera(ahead);

@@ -607,11 +607,6 @@ int main(int argc, char** argv) {
           "Writes the tables to FILE (default benchmark.md) after each section and prints them at the end.\n");
       return 0;
     }
-    if (!a.empty() && a[0] == '-' && a != "--only" && a != "--out" && a != "--runs" && a != "--cpu-threads" &&
-        a != "--quick" && a != "--replay" && a != "--map-foreground" && a != "--pipeline-multiscale") {
-      std::fprintf(stderr, "amhmvs_benchmark: unknown option '%s' (--help lists them)\n", a.c_str());
-      return 2;
-    }
     if (a == "--only" && i + 1 < argc) {
       only = argv[++i];
       continue;
@@ -628,7 +623,12 @@ int main(int argc, char** argv) {
       const size_t comma = value.find(',');
       if (comma != std::string::npos) pipeline_multiscale.iterations = std::max(1, std::atoi(value.c_str() + comma + 1));
     }
-    else data = a;
+    else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "amhmvs_benchmark: unknown option or missing value: '%s' (--help lists them)\n", a.c_str());
+      return 2;
+    } else {
+      data = a;
+    }
   }
   // --only A,B,...: the named sections only.
   const auto wants = [&only](const std::string& section) {
