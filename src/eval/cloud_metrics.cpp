@@ -54,12 +54,13 @@ void VoxelGridIndex::cellOf(const Eigen::Vector3f& p, int* x, int* y, int* z) co
   *z = cellCoordinate(p.z(), cell_size_);
 }
 
-double VoxelGridIndex::nearestDistance(const Eigen::Vector3f& query, double max_radius) const {
+double VoxelGridIndex::nearestDistance(const Eigen::Vector3f& query, double max_radius, double enough_radius) const {
   if (cells_.empty() || !query.allFinite() || !(max_radius >= 0)) return kInfinity;
   int qx, qy, qz;
   cellOf(query, &qx, &qy, &qz);
   const int reach = static_cast<int>(std::ceil(max_radius / cell_size_));
   double best_squared = max_radius * max_radius;
+  const double enough_squared = enough_radius * enough_radius;
   bool found = false;
   const auto key_less = [](const Entry& e, const std::tuple<int, int, int>& key) {
     return std::tie(e.x, e.y, e.z) < key;
@@ -75,11 +76,24 @@ double VoxelGridIndex::nearestDistance(const Eigen::Vector3f& query, double max_
         if (d2 <= best_squared) {
           best_squared = d2;
           found = true;
+          if (d2 <= enough_squared) return std::sqrt(d2);
         }
       }
     }
   }
   return found ? std::sqrt(best_squared) : kInfinity;
+}
+
+double VoxelGridIndex::distanceInBand(const Eigen::Vector3f& query, const std::vector<double>& thresholds) const {
+  for (double threshold : thresholds) {
+    const double distance = nearestDistance(query, threshold, threshold);
+    if (std::isfinite(distance)) return distance;
+  }
+  return kInfinity;
+}
+
+double bandCellSize(const std::vector<double>& thresholds) {
+  return 0.5 * *std::max_element(thresholds.begin(), thresholds.end());
 }
 
 std::string CloudMetrics::table() const {
@@ -103,7 +117,8 @@ namespace {
 std::vector<double> sharesWithin(const std::vector<Eigen::Vector3f>& queries,
                                  const VoxelGridIndex& index,
                                  const std::vector<double>& thresholds) {
-  const double max_threshold = *std::max_element(thresholds.begin(), thresholds.end());
+  std::vector<double> ascending = thresholds;
+  std::sort(ascending.begin(), ascending.end());
   std::vector<long> within(thresholds.size(), 0);
   const long n = static_cast<long>(queries.size());
 #pragma omp parallel
@@ -111,7 +126,7 @@ std::vector<double> sharesWithin(const std::vector<Eigen::Vector3f>& queries,
     std::vector<long> local(thresholds.size(), 0);
 #pragma omp for schedule(static)
     for (long i = 0; i < n; ++i) {
-      const double d = index.nearestDistance(queries[i], max_threshold);
+      const double d = index.distanceInBand(queries[i], ascending);
       for (size_t k = 0; k < thresholds.size(); ++k) local[k] += d <= thresholds[k];
     }
 #pragma omp critical
@@ -135,10 +150,8 @@ CloudMetrics evaluateCloud(const std::vector<Eigen::Vector3f>& reconstruction,
       throw InputError("cloud metrics: thresholds must be positive and finite");
     }
   }
-  const double max_threshold = *std::max_element(thresholds.begin(), thresholds.end());
-  // Cells as large as the largest radius: each query visits 3^3 cells.
-  const VoxelGridIndex gt_index(ground_truth, max_threshold);
-  const VoxelGridIndex reconstruction_index(reconstruction, max_threshold);
+  const VoxelGridIndex gt_index(ground_truth, bandCellSize(thresholds));
+  const VoxelGridIndex reconstruction_index(reconstruction, bandCellSize(thresholds));
 
   CloudMetrics m;
   m.thresholds = thresholds;

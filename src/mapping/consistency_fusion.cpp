@@ -47,13 +47,12 @@ size_t ConsistencyFusion::requiredViews() const {
 }
 
 std::vector<int64_t> ConsistencyFusion::views(int64_t id) const {
-  std::vector<int64_t> candidates;
-  for (int64_t other : store_.ids()) {
-    if (other != id && hasDepthAndNormals(store_.entry(other))) candidates.push_back(other);
-  }
-  if (candidates.empty()) return {};
   SourceSelectionOptions options = options_.sources;
   options.max_sources = static_cast<int>(viewCap());
+  options.max_candidates = std::max(options.max_candidates, options.max_sources);
+  const std::vector<int64_t> candidates = store_.nearestIds(
+      store_.keyframe(id).camera.center(), nearestCandidateCount(options), id, hasDepthAndNormals);
+  if (candidates.empty()) return {};
   // Through the store: the scene depth is the keyframe's own depth map's.
   return selectSources(store_, id, candidates, options).source_ids;
 }

@@ -119,6 +119,8 @@ std::vector<int64_t> KeyframeStore::add(Keyframe keyframe) {
   Entry& entry = entries_[id];
   entry.sequence = next_sequence_++;
   entry.stored = std::move(stored);
+  entry.slot = centres_.size();
+  centres_.push_back({entry.stored.keyframe.camera.center(), entry.sequence, id});
   order_[entry.sequence] = id;
   ++revision_;
   return evicted;
@@ -203,6 +205,10 @@ void KeyframeStore::erase(int64_t id) {
     source_refs_.erase(id);
   }
   bytes_ -= entry.stored.bytes;
+  // The last centre takes the erased one's slot.
+  centres_[entry.slot] = centres_.back();
+  entries_.at(centres_[entry.slot].id).slot = entry.slot;
+  centres_.pop_back();
   order_.erase(entry.sequence);
   entries_.erase(id);
   ++revision_;
@@ -299,6 +305,7 @@ void KeyframeStore::updatePose(int64_t id, const Eigen::Isometry3d& camera_to_wo
   const Eigen::Isometry3d motion = camera_to_world * keyframe.cameraToWorld().inverse();
   for (Eigen::Vector3d& point : keyframe.sparse_points) point = motion * point;
   keyframe.setCameraToWorld(camera_to_world);
+  centres_[entry.slot].position = keyframe.camera.center();
   ++entry.stored.pose_revision;
   ++revision_;
 }
@@ -308,6 +315,25 @@ std::vector<int64_t> KeyframeStore::ids() const {
   out.reserve(order_.size());
   for (const auto& entry : order_) out.push_back(entry.second);
   return out;
+}
+
+std::vector<int64_t> KeyframeStore::nearestIds(const Eigen::Vector3d& point, size_t count, int64_t skip_id,
+                                               const std::function<bool(const StoredKeyframe&)>& accept) const {
+  std::vector<std::tuple<double, uint64_t, int64_t>> heap;  // (squared distance, sequence, id)
+  heap.reserve(centres_.size());
+  for (const Centre& centre : centres_) {
+    if (centre.id != skip_id) heap.emplace_back((centre.position - point).squaredNorm(), centre.sequence, centre.id);
+  }
+  const auto farther = [](const auto& a, const auto& b) { return a > b; };
+  std::make_heap(heap.begin(), heap.end(), farther);
+  std::vector<int64_t> nearest;
+  while (nearest.size() < count && !heap.empty()) {
+    std::pop_heap(heap.begin(), heap.end(), farther);
+    const int64_t id = std::get<2>(heap.back());
+    heap.pop_back();
+    if (!accept || accept(entries_.at(id).stored)) nearest.push_back(id);
+  }
+  return nearest;
 }
 
 std::vector<int64_t> KeyframeStore::pendingIds() const {

@@ -175,7 +175,8 @@ const Table<SourceSelectionOptions>& sourcesTable() {
                 "preferred_angle_deg"),
       advanced(numberField<O, int>("max_candidates", &O::max_candidates,
                                    "stored keyframes evaluated in full per selection (the overlap grid), the best "
-                                   "at the image centre; bounds the cost as the store grows")),
+                                   "at the image centre among the four times as many nearest; bounds the cost as the "
+                                   "store grows")),
       advanced(switchField<O>("match_when_unknown", &O::match_when_unknown,
                               "the first pair's scene depth from patches matched along epipolar lines")),
       withAlias(advanced(numberField<O, double>("default_scene_depth", &O::default_scene_depth,

@@ -288,9 +288,14 @@ SourceSelection selectSources(const KeyframeStore& store, int64_t target_id,
   return selectAtDepth(target, candidates, sceneDepth(store, target_id, others, options), options);
 }
 
+size_t nearestCandidateCount(const SourceSelectionOptions& options) {
+  return 4 * static_cast<size_t>(std::max(options.max_candidates, 1));
+}
+
 SourceSelection selectSources(const KeyframeStore& store, int64_t target_id,
                               const SourceSelectionOptions& options) {
-  return selectSources(store, target_id, store.ids(), options);
+  const Eigen::Vector3d centre = store.keyframe(target_id).camera.center();
+  return selectSources(store, target_id, store.nearestIds(centre, nearestCandidateCount(options), target_id), options);
 }
 
 }  // namespace amhmvs

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/core/median.h"
 #include "amhmvs_mapping/io/atomic_file.h"
 #include "amhmvs_mapping/eval/cloud_metrics.h"
 #include "amhmvs_mapping/eval/ground_truth_depth.h"
@@ -244,6 +245,16 @@ std::string alignmentSourcesJson(const DirectAlignmentResult& alignment, const s
   return "[" + list + "]";
 }
 
+// Median of the estimate's finite matching costs (NaN without any).
+double medianCost(const ImageF& cost) {
+  std::vector<double> values;
+  values.reserve(cost.data.size());
+  for (float value : cost.data) {
+    if (std::isfinite(value)) values.push_back(value);
+  }
+  return values.empty() ? NAN : medianOf(std::move(values));
+}
+
 // The row of one result: identity, sources, depth range, stage times, fusion.
 std::vector<Cell> resultCells(const KeyframeResult& result, const PosedFrame* frame) {
   const bool depth = result.has_depth;
@@ -261,6 +272,7 @@ std::vector<Cell> resultCells(const KeyframeResult& result, const PosedFrame* fr
       textCell("backend", depth ? backendName(result.depth->backend) : "")};
   for (const auto& field : stageFields()) cells.push_back(numberCell(field.first, result.times.*field.second));
   cells.push_back(numberCell("estimator_ms", depth ? result.depth->milliseconds : NAN));
+  cells.push_back(numberCell("median_cost", depth ? medianCost(result.depth->cost) : NAN));
   for (const Cell& cell : poseRefinementCells(result.pose_refinement)) cells.push_back(cell);
   std::vector<int64_t> fused_ids;
   size_t fused_points = 0;
@@ -656,12 +668,12 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   }
   if (!truth_points_.empty()) {
     const std::vector<Eigen::Vector3f> truth = allPoints(truth_points_);
-    const VoxelGridIndex index(truth, kMapThresholds.back());
+    const VoxelGridIndex index(truth, bandCellSize(kMapThresholds));
     // Share of `points` within each threshold of the true surface.
     const auto withinPct = [&index](const std::vector<Eigen::Vector3f>& points) {
       std::vector<size_t> within(kMapThresholds.size(), 0);
       for (const Eigen::Vector3f& point : points) {
-        const double distance = index.nearestDistance(point, kMapThresholds.back());
+        const double distance = index.distanceInBand(point, kMapThresholds);
         for (size_t i = 0; i < kMapThresholds.size(); ++i) within[i] += distance <= kMapThresholds[i];
       }
       std::vector<double> pct;
@@ -674,9 +686,9 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
     const auto coveredPct = [&truth](const std::vector<Eigen::Vector3f>& points) {
       std::vector<size_t> covered(kMapThresholds.size(), 0);
       if (!points.empty()) {
-        const VoxelGridIndex nearest(points, kMapThresholds.back());
+        const VoxelGridIndex nearest(points, bandCellSize(kMapThresholds));
         for (const Eigen::Vector3f& point : truth) {
-          const double distance = nearest.nearestDistance(point, kMapThresholds.back());
+          const double distance = nearest.distanceInBand(point, kMapThresholds);
           for (size_t i = 0; i < kMapThresholds.size(); ++i) covered[i] += distance <= kMapThresholds[i];
         }
       }

@@ -23,6 +23,10 @@
 
 namespace amhmvs {
 
+// A cell size for counting within `thresholds`: half the largest, so that
+// the search within the smallest visits few cells.
+double bandCellSize(const std::vector<double>& thresholds);
+
 // Points bucketed in cubic cells of a fixed size: finds the nearest point
 // within a radius by visiting only the cells the radius reaches. Cells are
 // kept sorted by their integer coordinates (no hash, no extent limit).
@@ -33,8 +37,17 @@ class VoxelGridIndex {
   VoxelGridIndex(const std::vector<Eigen::Vector3f>& points, double cell_size);
 
   // Distance to the nearest indexed point if it is at most max_radius,
-  // otherwise +infinity (also for an empty index).
-  double nearestDistance(const Eigen::Vector3f& query, double max_radius) const;
+  // otherwise +infinity (also for an empty index). With enough_radius > 0 the
+  // search stops at the first point within it and returns that point's
+  // distance (at most enough_radius, not always the least): counting the
+  // points within thresholds needs no more, and a query amid a dense clump
+  // then costs one hit instead of the clump.
+  double nearestDistance(const Eigen::Vector3f& query, double max_radius, double enough_radius = 0) const;
+  // For counting points within thresholds (ascending): a distance in the
+  // same band of them as the nearest point's, +infinity beyond the last.
+  // Searches each threshold's radius in turn, stopping at the first point
+  // within it, so that a query amid a dense cloud costs a few hits.
+  double distanceInBand(const Eigen::Vector3f& query, const std::vector<double>& thresholds) const;
 
   size_t size() const { return points_.size(); }
 

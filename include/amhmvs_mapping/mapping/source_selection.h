@@ -22,7 +22,11 @@
 // pass the cheap checks (pose, optical axes), only the max_candidates best at
 // the target's centre pixel (seen there, then the triangulation angle nearest
 // the preferred one) are evaluated in full; the others are rejected as such.
-// Selection then costs about the same in a store of 50 keyframes and of 5,000.
+// Among a store's keyframes, only the nearestCandidateCount() whose camera
+// centres lie nearest the target's are candidates at all (good sources sit
+// within a few baselines of the target; a keyframe far away sees the scene at
+// another scale or angle). Selection then costs about the same in a store of
+// 50 keyframes and of 5,000.
 #pragma once
 
 #include <cstdint>
@@ -80,6 +84,10 @@ SourceSelection selectSources(const Keyframe& target,
                               const std::vector<const Keyframe*>& candidates,
                               const SourceSelectionOptions& options = SourceSelectionOptions());
 
+// How many of a store's keyframes, those nearest the target, are candidates
+// for selectSources(store, target_id, options): 4 x max_candidates.
+size_t nearestCandidateCount(const SourceSelectionOptions& options);
+
 // Selects among the stored keyframes `candidate_ids`, at the scene depth of
 // every rule of scene_depth.h (their depth maps and images included); throws
 // InputError for an unknown id.
@@ -87,7 +95,8 @@ SourceSelection selectSources(const KeyframeStore& store, int64_t target_id,
                               const std::vector<int64_t>& candidate_ids,
                               const SourceSelectionOptions& options = SourceSelectionOptions());
 
-// Same, among all other keyframes of the store.
+// Same, among the nearestCandidateCount(options) other keyframes of the
+// store nearest the target.
 SourceSelection selectSources(const KeyframeStore& store, int64_t target_id,
                               const SourceSelectionOptions& options = SourceSelectionOptions());
 

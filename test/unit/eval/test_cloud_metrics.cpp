@@ -58,7 +58,23 @@ TEST(CloudMetrics, VoxelGridMatchesBruteForce) {
       } else {
         EXPECT_TRUE(std::isinf(found));
       }
+      // Stopping at the first point within a smaller radius: within it when the
+      // nearest is, else still the nearest.
+      const double enough = 0.5 * radius;
+      const double first = index.nearestDistance(query, radius, enough);
+      if (best <= enough) {
+        EXPECT_LE(first, enough);
+        EXPECT_GE(first, best);
+      } else if (best <= radius) {
+        EXPECT_NEAR(first, best, 1e-9);
+      } else {
+        EXPECT_TRUE(std::isinf(first));
+      }
     }
+    // The band of {0.01, 0.05, 0.2} the nearest point lies in.
+    const std::vector<double> bands = {0.01, 0.05, 0.2};
+    const double in_band = index.distanceInBand(query, bands);
+    for (double threshold : bands) EXPECT_EQ(in_band <= threshold, best <= threshold) << best << " " << in_band;
   }
   EXPECT_TRUE(std::isinf(VoxelGridIndex({}, 1.0).nearestDistance({0, 0, 0}, 10)));
 }

@@ -222,6 +222,57 @@ TEST(KeyframeStore, EvictsByDocumentedPolicy) {
   EXPECT_INPUT_ERROR(store.keyframe(2), "keyframe 2", "unknown id");
 }
 
+// Brute force for nearestIds(): every stored keyframe sorted by distance,
+// then age.
+std::vector<int64_t> nearestByBruteForce(const KeyframeStore& store, const Eigen::Vector3d& point, size_t count,
+                                         int64_t skip_id, bool with_depth_only) {
+  std::vector<std::pair<double, int64_t>> all;  // ids() is oldest first: stable_sort keeps age
+  for (int64_t id : store.ids()) {
+    if (id == skip_id || (with_depth_only && store.state(id) != KeyframeState::kDone)) continue;
+    all.emplace_back((store.keyframe(id).camera.center() - point).squaredNorm(), id);
+  }
+  std::stable_sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<int64_t> ids;
+  for (size_t i = 0; i < all.size() && i < count; ++i) ids.push_back(all[i].second);
+  return ids;
+}
+
+TEST(KeyframeStore, NearestIdsAgreeWithBruteForceThroughRemovalsEvictionsAndPoseUpdates) {
+  KeyframeStoreOptions options;
+  options.max_keyframes = 150;
+  KeyframeStore store(options);
+  uint32_t state = 12345;
+  const auto uniform = [&state] {  // deterministic, in [-1, 1)
+    state = state * 1664525u + 1013904223u;
+    return static_cast<double>(state >> 8) / (1u << 23) - 1.0;
+  };
+  size_t evicted = 0;
+  for (int64_t id = 0; id < 200; ++id) {
+    // Every tenth keyframe at an earlier one's place: equal distances, decided by age.
+    const Eigen::Vector3d centre = id % 10 == 9 ? store.keyframe(store.ids().back()).camera.center()
+                                                : Eigen::Vector3d(uniform(), uniform(), 0.2 * uniform());
+    evicted += store.add(makeKeyframe(id, static_cast<double>(id), poseAt(centre))).size();
+    if (id % 3 == 0) store.attachDepth(id, makeDepth());
+    if (id % 17 == 5) store.remove(id - 2);
+    if (id % 13 == 0) {
+      const int64_t moved = store.ids().front();
+      store.updatePose(moved, poseAt(Eigen::Vector3d(uniform(), uniform(), 0)));
+    }
+  }
+  ASSERT_GT(evicted, 0u);
+  ASSERT_EQ(store.size(), 150u);
+  const auto has_depth = [](const StoredKeyframe& stored) { return stored.state == KeyframeState::kDone; };
+  for (int query = 0; query < 20; ++query) {
+    const Eigen::Vector3d point(uniform(), uniform(), 0);
+    const int64_t skip = store.ids()[query * 7];
+    for (size_t count : {size_t{1}, size_t{8}, size_t{40}, size_t{500}}) {
+      EXPECT_EQ(store.nearestIds(point, count, skip), nearestByBruteForce(store, point, count, skip, false));
+      EXPECT_EQ(store.nearestIds(point, count, skip, has_depth), nearestByBruteForce(store, point, count, skip, true));
+    }
+  }
+  EXPECT_EQ(store.nearestIds(Eigen::Vector3d::Zero(), 500, -1).size(), 150u);
+}
+
 // Stamps are labels: after a clock that jumped back (a bag played again) the
 // earlier stamps are stored, and arrival order still decides the eviction.
 TEST(KeyframeStore, EarlierStampsAfterAClockJumpAreStoredInArrivalOrder) {

@@ -126,6 +126,27 @@ TEST(SourceSelection, ALargeStoreEvaluatesOnlyTheCandidatesNearestThePreferredAn
   EXPECT_EQ(skipped, 400 - SourceSelectionOptions().max_candidates);
 }
 
+TEST(SourceSelection, FromALargeStoreOnlyTheNearestKeyframesAreCandidates) {
+  // 300 keyframes along a sideways line: the store's selection reads the 128
+  // nearest the target and picks what reading all of them picks.
+  KeyframeStore store;
+  store.add(makeTarget(0));
+  for (int64_t id = 1; id <= 300; ++id) {
+    const double side = (id % 2 ? 1.0 : -1.0) * 0.004 * id;
+    store.add(makeKeyframe(id, poseAt(Eigen::Vector3d(side, 0.001 * (id % 5), 0))));
+  }
+  SourceSelectionOptions all;
+  all.max_candidates = 10000;
+  const SourceSelection reference = selectSources(store, 0, store.ids(), all);
+  const SourceSelection nearest = selectSources(store, 0);
+  ASSERT_EQ(reference.source_ids.size(), 8u) << reference.reason;
+  EXPECT_EQ(nearest.source_ids, reference.source_ids);
+  ASSERT_EQ(nearestCandidateCount(SourceSelectionOptions()), 128u);
+  ASSERT_EQ(nearest.candidates.size(), 128u);
+  // The candidates are the 64 nearest on each side.
+  for (const SourceViewCandidate& c : nearest.candidates) EXPECT_LE(c.id, 128) << c.id;
+}
+
 TEST(SourceSelection, ForwardMotionTriangulatesOffAxis) {
   const Keyframe target = makeTarget();
   std::vector<Keyframe> keyframes = {
