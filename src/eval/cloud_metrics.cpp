@@ -15,85 +15,60 @@ namespace amhmvs {
 namespace {
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
-
-// Cell coordinates stay well inside int even for far points and tiny cells.
-int cellCoordinate(double value, double cell_size) {
-  const double c = std::floor(value / cell_size);
-  return static_cast<int>(std::clamp(c, -1e9, 1e9));
-}
+constexpr size_t kLeafPoints = 8;
 
 }  // namespace
 
-VoxelGridIndex::VoxelGridIndex(const std::vector<Eigen::Vector3f>& points, double cell_size)
-    : cell_size_(cell_size) {
-  if (!(std::isfinite(cell_size) && cell_size > 0)) {
-    throw InputError("voxel grid: cell size must be positive and finite");
-  }
-  std::vector<Entry> entries(points.size());
-  for (size_t i = 0; i < points.size(); ++i) {
-    if (!points[i].allFinite()) {
-      throw InputError("voxel grid: point " + std::to_string(i) + " is not finite");
+NearestPointIndex::NearestPointIndex(const std::vector<Eigen::Vector3f>& points)
+    : points_(points), axis_(points.size(), 0) {
+  for (size_t i = 0; i < points_.size(); ++i) {
+    if (!points_[i].allFinite()) {
+      throw InputError("nearest-point index: point " + std::to_string(i) + " is not finite");
     }
-    cellOf(points[i], &entries[i].x, &entries[i].y, &entries[i].z);
-    entries[i].index = static_cast<unsigned>(i);
   }
-  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
-    return std::tie(a.x, a.y, a.z, a.index) < std::tie(b.x, b.y, b.z, b.index);
-  });
-  points_.reserve(points.size());
-  for (Entry& e : entries) {
-    points_.push_back(points[e.index]);
-    e.index = static_cast<unsigned>(points_.size() - 1);
-  }
-  cells_ = std::move(entries);
+  build(0, points_.size());
 }
 
-void VoxelGridIndex::cellOf(const Eigen::Vector3f& p, int* x, int* y, int* z) const {
-  *x = cellCoordinate(p.x(), cell_size_);
-  *y = cellCoordinate(p.y(), cell_size_);
-  *z = cellCoordinate(p.z(), cell_size_);
+void NearestPointIndex::build(size_t begin, size_t end) {
+  if (end - begin <= kLeafPoints) return;
+  Eigen::Vector3f low = points_[begin], high = points_[begin];
+  for (size_t i = begin + 1; i < end; ++i) {
+    low = low.cwiseMin(points_[i]);
+    high = high.cwiseMax(points_[i]);
+  }
+  Eigen::Index axis;
+  (high - low).maxCoeff(&axis);
+  const size_t middle = begin + (end - begin) / 2;
+  std::nth_element(points_.begin() + begin, points_.begin() + middle, points_.begin() + end,
+                   [axis](const Eigen::Vector3f& a, const Eigen::Vector3f& b) { return a[axis] < b[axis]; });
+  axis_[middle] = static_cast<unsigned char>(axis);
+  build(begin, middle);
+  build(middle + 1, end);
 }
 
-double VoxelGridIndex::nearestDistance(const Eigen::Vector3f& query, double max_radius, double enough_radius) const {
-  if (cells_.empty() || !query.allFinite() || !(max_radius >= 0)) return kInfinity;
-  int qx, qy, qz;
-  cellOf(query, &qx, &qy, &qz);
-  const int reach = static_cast<int>(std::ceil(max_radius / cell_size_));
+void NearestPointIndex::search(const Eigen::Vector3f& query, size_t begin, size_t end, double* best_squared) const {
+  if (end - begin <= kLeafPoints) {
+    for (size_t i = begin; i < end; ++i)
+      *best_squared = std::min(*best_squared, (points_[i] - query).cast<double>().squaredNorm());
+    return;
+  }
+  const size_t middle = begin + (end - begin) / 2;
+  *best_squared = std::min(*best_squared, (points_[middle] - query).cast<double>().squaredNorm());
+  const int axis = axis_[middle];
+  // Points before the median lie at or below it on the axis, those after at or above.
+  const double offset = static_cast<double>(query[axis]) - points_[middle][axis];
+  const bool below = offset < 0;
+  search(query, below ? begin : middle + 1, below ? middle : end, best_squared);
+  if (offset * offset <= *best_squared) search(query, below ? middle + 1 : begin, below ? end : middle, best_squared);
+}
+
+double NearestPointIndex::nearestDistance(const Eigen::Vector3f& query, double max_radius) const {
+  if (points_.empty() || !query.allFinite() || !(max_radius >= 0)) return kInfinity;
   double best_squared = max_radius * max_radius;
-  const double enough_squared = enough_radius * enough_radius;
-  bool found = false;
-  const auto key_less = [](const Entry& e, const std::tuple<int, int, int>& key) {
-    return std::tie(e.x, e.y, e.z) < key;
-  };
-  for (int dx = -reach; dx <= reach; ++dx) {
-    for (int dy = -reach; dy <= reach; ++dy) {
-      // Cells along z with equal x and y are contiguous: one range per column.
-      const std::tuple<int, int, int> first(qx + dx, qy + dy, qz - reach);
-      auto it = std::lower_bound(cells_.begin(), cells_.end(), first, key_less);
-      for (; it != cells_.end() && it->x == qx + dx && it->y == qy + dy && it->z <= qz + reach;
-           ++it) {
-        const double d2 = (points_[it->index] - query).cast<double>().squaredNorm();
-        if (d2 <= best_squared) {
-          best_squared = d2;
-          found = true;
-          if (d2 <= enough_squared) return std::sqrt(d2);
-        }
-      }
-    }
-  }
-  return found ? std::sqrt(best_squared) : kInfinity;
-}
-
-double VoxelGridIndex::distanceInBand(const Eigen::Vector3f& query, const std::vector<double>& thresholds) const {
-  for (double threshold : thresholds) {
-    const double distance = nearestDistance(query, threshold, threshold);
-    if (std::isfinite(distance)) return distance;
-  }
-  return kInfinity;
-}
-
-double bandCellSize(const std::vector<double>& thresholds) {
-  return 0.5 * *std::max_element(thresholds.begin(), thresholds.end());
+  // A point exactly at max_radius counts: search a hair beyond, then check.
+  double searched = std::nextafter(best_squared, kInfinity);
+  search(query, 0, points_.size(), &searched);
+  return searched <= best_squared ? std::sqrt(searched) : kInfinity;
 }
 
 std::string CloudMetrics::table() const {
@@ -115,10 +90,9 @@ namespace {
 
 // For each threshold, the share of `queries` with an indexed point within it.
 std::vector<double> sharesWithin(const std::vector<Eigen::Vector3f>& queries,
-                                 const VoxelGridIndex& index,
+                                 const NearestPointIndex& index,
                                  const std::vector<double>& thresholds) {
-  std::vector<double> ascending = thresholds;
-  std::sort(ascending.begin(), ascending.end());
+  const double max_threshold = *std::max_element(thresholds.begin(), thresholds.end());
   std::vector<long> within(thresholds.size(), 0);
   const long n = static_cast<long>(queries.size());
 #pragma omp parallel
@@ -126,7 +100,7 @@ std::vector<double> sharesWithin(const std::vector<Eigen::Vector3f>& queries,
     std::vector<long> local(thresholds.size(), 0);
 #pragma omp for schedule(static)
     for (long i = 0; i < n; ++i) {
-      const double d = index.distanceInBand(queries[i], ascending);
+      const double d = index.nearestDistance(queries[i], max_threshold);
       for (size_t k = 0; k < thresholds.size(); ++k) local[k] += d <= thresholds[k];
     }
 #pragma omp critical
@@ -150,8 +124,8 @@ CloudMetrics evaluateCloud(const std::vector<Eigen::Vector3f>& reconstruction,
       throw InputError("cloud metrics: thresholds must be positive and finite");
     }
   }
-  const VoxelGridIndex gt_index(ground_truth, bandCellSize(thresholds));
-  const VoxelGridIndex reconstruction_index(reconstruction, bandCellSize(thresholds));
+  const NearestPointIndex gt_index(ground_truth);
+  const NearestPointIndex reconstruction_index(reconstruction);
 
   CloudMetrics m;
   m.thresholds = thresholds;

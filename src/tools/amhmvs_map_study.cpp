@@ -310,7 +310,7 @@ std::string levelTable(const RunRecord& run, const Truth& truth, const std::vect
 // The map against the true surface and the share of each keyframe's pixels
 // it holds (fused points / pixels).
 std::vector<std::string> mapCells(const RunRecord& run, const Truth& truth) {
-  const VoxelGridIndex index(truth.surface, 0.05);
+  const NearestPointIndex index(truth.surface);
   size_t within2 = 0, within5 = 0;
   for (const Eigen::Vector3f& point : run.map_points) {
     const double distance = index.nearestDistance(point, 0.05);

@@ -668,12 +668,12 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
   }
   if (!truth_points_.empty()) {
     const std::vector<Eigen::Vector3f> truth = allPoints(truth_points_);
-    const VoxelGridIndex index(truth, bandCellSize(kMapThresholds));
+    const NearestPointIndex index(truth);
     // Share of `points` within each threshold of the true surface.
     const auto withinPct = [&index](const std::vector<Eigen::Vector3f>& points) {
       std::vector<size_t> within(kMapThresholds.size(), 0);
       for (const Eigen::Vector3f& point : points) {
-        const double distance = index.distanceInBand(point, kMapThresholds);
+        const double distance = index.nearestDistance(point, kMapThresholds.back());
         for (size_t i = 0; i < kMapThresholds.size(); ++i) within[i] += distance <= kMapThresholds[i];
       }
       std::vector<double> pct;
@@ -686,9 +686,9 @@ std::string MapOutputs::summaryJson(const MappingPipeline& pipeline, const MapRu
     const auto coveredPct = [&truth](const std::vector<Eigen::Vector3f>& points) {
       std::vector<size_t> covered(kMapThresholds.size(), 0);
       if (!points.empty()) {
-        const VoxelGridIndex nearest(points, bandCellSize(kMapThresholds));
+        const NearestPointIndex nearest(points);
         for (const Eigen::Vector3f& point : truth) {
-          const double distance = nearest.distanceInBand(point, kMapThresholds);
+          const double distance = nearest.nearestDistance(point, kMapThresholds.back());
           for (size_t i = 0; i < kMapThresholds.size(); ++i) covered[i] += distance <= kMapThresholds[i];
         }
       }

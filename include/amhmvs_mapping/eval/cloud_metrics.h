@@ -1,5 +1,5 @@
-// Point-cloud accuracy and completeness (ETH3D-style definitions), a voxel
-// grid for fixed-radius nearest-neighbour queries, and clouds from depth
+// Point-cloud accuracy and completeness (ETH3D-style definitions), a k-d
+// tree for nearest-point queries within a radius, and clouds from depth
 // maps.
 //
 // Definitions, for a distance threshold t:
@@ -23,44 +23,28 @@
 
 namespace amhmvs {
 
-// A cell size for counting within `thresholds`: half the largest, so that
-// the search within the smallest visits few cells.
-double bandCellSize(const std::vector<double>& thresholds);
-
-// Points bucketed in cubic cells of a fixed size: finds the nearest point
-// within a radius by visiting only the cells the radius reaches. Cells are
-// kept sorted by their integer coordinates (no hash, no extent limit).
-class VoxelGridIndex {
+// Nearest-point queries within a radius: a balanced k-d tree over a copy of
+// the points (each split at the median of the box's longest side, leaves of
+// up to 8 points). A query visits only the nodes that can hold a point nearer
+// than the best found so far, so a dense cloud (a surface seen by hundreds of
+// keyframes) costs about as much as a sparse one.
+class NearestPointIndex {
  public:
-  // Throws InputError for a non-positive or non-finite cell size, or a
-  // non-finite point.
-  VoxelGridIndex(const std::vector<Eigen::Vector3f>& points, double cell_size);
+  // Throws InputError for a non-finite point.
+  explicit NearestPointIndex(const std::vector<Eigen::Vector3f>& points);
 
   // Distance to the nearest indexed point if it is at most max_radius,
-  // otherwise +infinity (also for an empty index). With enough_radius > 0 the
-  // search stops at the first point within it and returns that point's
-  // distance (at most enough_radius, not always the least): counting the
-  // points within thresholds needs no more, and a query amid a dense clump
-  // then costs one hit instead of the clump.
-  double nearestDistance(const Eigen::Vector3f& query, double max_radius, double enough_radius = 0) const;
-  // For counting points within thresholds (ascending): a distance in the
-  // same band of them as the nearest point's, +infinity beyond the last.
-  // Searches each threshold's radius in turn, stopping at the first point
-  // within it, so that a query amid a dense cloud costs a few hits.
-  double distanceInBand(const Eigen::Vector3f& query, const std::vector<double>& thresholds) const;
+  // otherwise +infinity (also for an empty index).
+  double nearestDistance(const Eigen::Vector3f& query, double max_radius) const;
 
   size_t size() const { return points_.size(); }
 
  private:
-  struct Entry {
-    int x, y, z;
-    unsigned index;
-  };
-  void cellOf(const Eigen::Vector3f& p, int* x, int* y, int* z) const;
+  void build(size_t begin, size_t end);
+  void search(const Eigen::Vector3f& query, size_t begin, size_t end, double* best_squared) const;
 
-  std::vector<Eigen::Vector3f> points_;  // in cell order
-  std::vector<Entry> cells_;             // sorted by (x, y, z)
-  double cell_size_;
+  std::vector<Eigen::Vector3f> points_;  // reordered: each range's median splits it
+  std::vector<unsigned char> axis_;      // split axis of the range whose median is this index
 };
 
 struct CloudMetrics {

@@ -41,42 +41,35 @@ TEST(CloudMetrics, HandMadeCloudsGiveExactFractions) {
   EXPECT_DOUBLE_EQ(empty.f1[0], 0.0);
 }
 
-TEST(CloudMetrics, VoxelGridMatchesBruteForce) {
+TEST(CloudMetrics, NearestPointIndexMatchesBruteForce) {
+  // A flat spread of points, a dense clump (a surface seen many times) and
+  // exact duplicates.
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> u(-2, 2);
   std::vector<Eigen::Vector3f> points(3000);
   for (auto& p : points) p = {u(rng), u(rng), u(rng) * 0.1f};
-  const VoxelGridIndex index(points, 0.07);
-  for (int q = 0; q < 500; ++q) {
-    const Eigen::Vector3f query(u(rng), u(rng), u(rng) * 0.1f);
+  for (int i = 0; i < 2000; ++i) points.emplace_back(0.3f + 0.01f * u(rng), -0.2f + 0.01f * u(rng), 0.0f);
+  for (int i = 0; i < 50; ++i) points.push_back(points[i]);
+  const NearestPointIndex index(points);
+  ASSERT_EQ(index.size(), points.size());
+  for (int q = 0; q < 600; ++q) {
+    const Eigen::Vector3f query = q % 3 == 0 ? Eigen::Vector3f(0.3f + 0.05f * u(rng), -0.2f + 0.05f * u(rng), 0.02f * u(rng))
+                                             : Eigen::Vector3f(u(rng), u(rng), u(rng) * 0.1f);
     double best = std::numeric_limits<double>::infinity();
     for (const auto& p : points) best = std::min(best, (p - query).cast<double>().norm());
-    for (double radius : {0.01, 0.05, 0.2}) {
+    for (double radius : {0.0, 0.001, 0.01, 0.05, 0.2, 10.0}) {
       const double found = index.nearestDistance(query, radius);
       if (best <= radius) {
         EXPECT_NEAR(found, best, 1e-9);
       } else {
         EXPECT_TRUE(std::isinf(found));
       }
-      // Stopping at the first point within a smaller radius: within it when the
-      // nearest is, else still the nearest.
-      const double enough = 0.5 * radius;
-      const double first = index.nearestDistance(query, radius, enough);
-      if (best <= enough) {
-        EXPECT_LE(first, enough);
-        EXPECT_GE(first, best);
-      } else if (best <= radius) {
-        EXPECT_NEAR(first, best, 1e-9);
-      } else {
-        EXPECT_TRUE(std::isinf(first));
-      }
     }
-    // The band of {0.01, 0.05, 0.2} the nearest point lies in.
-    const std::vector<double> bands = {0.01, 0.05, 0.2};
-    const double in_band = index.distanceInBand(query, bands);
-    for (double threshold : bands) EXPECT_EQ(in_band <= threshold, best <= threshold) << best << " " << in_band;
   }
-  EXPECT_TRUE(std::isinf(VoxelGridIndex({}, 1.0).nearestDistance({0, 0, 0}, 10)));
+  // A point exactly at the radius counts; an indexed point is at distance 0.
+  EXPECT_EQ(NearestPointIndex({{1, 0, 0}}).nearestDistance({0, 0, 0}, 1.0), 1.0);
+  EXPECT_EQ(index.nearestDistance(points[17], 0.0), 0.0);
+  EXPECT_TRUE(std::isinf(NearestPointIndex({}).nearestDistance({0, 0, 0}, 10)));
 }
 
 TEST(CloudMetrics, BadInputIsRefused) {
@@ -86,7 +79,7 @@ TEST(CloudMetrics, BadInputIsRefused) {
   const std::vector<Eigen::Vector3f> nan_cloud = {
       {0, std::numeric_limits<float>::quiet_NaN(), 0}};
   EXPECT_INPUT_ERROR(evaluateCloud(nan_cloud, cloud, {0.1}), "point 0", "not finite");
-  EXPECT_INPUT_ERROR(VoxelGridIndex(cloud, 0.0), "voxel grid", "cell size");
+  EXPECT_INPUT_ERROR(NearestPointIndex{nan_cloud}, "nearest-point index", "point 0");
 }
 
 PinholeCamera testCamera() {

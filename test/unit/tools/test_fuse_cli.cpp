@@ -198,7 +198,7 @@ FountainScores scoreFountain(const std::string& dense, const std::string& depth_
   }
   // Completeness: the depth of a sparse point is its z in the first view that
   // observes it.
-  const VoxelGridIndex index(cloud.points, 0.05);
+  const NearestPointIndex index(cloud.points);
   long complete = 0, judged = 0;
   for (const SparsePoint& p : sparse) {
     for (int v : p.views) {
