@@ -314,8 +314,13 @@ const Table<ConfidenceOptions>& confidenceTable() {
 const Table<NeighbourDepthOptions>& neighbourDepthTable() {
   using O = NeighbourDepthOptions;
   static const Table<NeighbourDepthOptions> table = {
-      withAlias(advanced(switchField<O>("start_from_neighbours", &O::start_from_neighbours,
-                                        "a keyframe's estimate starts from its sources' depth maps")),
+      withAlias(advanced(OptionField<O>{"start_from_neighbours",
+                                 "a keyframe's estimate starts from its sources' depth maps: true, false or auto "
+                                 "(on with the CPU estimator; on CUDA its reprojection on the host would cost more "
+                                 "than the estimate)",
+                                 [](const O& o) { return std::string(neighbourStartName(o.start_from_neighbours)); },
+                                 [](O& o, const std::string& text) { o.start_from_neighbours = parseNeighbourStart(text); },
+                                 /*is_switch=*/true}),
                 "start_from_neighbours"),
       withAlias(advanced(numberField("start_iterations", &O::start_iterations,
                                      "iterations from that start (0: the estimator's schedule)")),

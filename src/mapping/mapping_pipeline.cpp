@@ -184,6 +184,7 @@ void MappingPipeline::init(EstimateFunction primary, EstimateFunction fallback, 
     return this->publish(reference, views, confidence, calibration);
   };
   options_.mapper.depth_filter.on_gpu = backend_ == Backend::kCuda;
+  options_.mapper.neighbour_depth.on_gpu = backend_ == Backend::kCuda;
   mapper_.reset(new OnlineMapper(options_.mapper, estimate, fuse, publish));
   if (options_.mapper.pose_refinement.enabled && !PoseRefiner::available())
     report(LogLevel::kWarn, "pose_refinement", std::string(PoseRefiner::unavailableMessage()) +
@@ -475,6 +476,7 @@ void MappingPipeline::applyPending() {
       const std::string problems = next->second.validate();
       if (!problems.empty()) throw InputError("estimator options:\n" + problems);
       next->first.depth_filter.on_gpu = backend_ == Backend::kCuda;
+      next->first.neighbour_depth.on_gpu = backend_ == Backend::kCuda;
       mapper_->setOptions(next->first);  // a new voxel size rebuilds the map
       if (estimator_) {  // an injected estimator (tests) stays as it is
         withdrawDeviceOffers(/*keep_last=*/false);  // the old estimator's buffers go with it

@@ -3,6 +3,9 @@
 #include <cmath>
 #include <sstream>
 
+#include "amhmvs_mapping/core/error.h"
+#include "amhmvs_mapping/core/option_field.h"
+
 namespace amhmvs {
 namespace {
 
@@ -14,6 +17,25 @@ const DepthMap* planesOf(const StoredKeyframe& stored) {
 }
 
 }  // namespace
+
+const char* neighbourStartName(NeighbourDepthOptions::Start start) {
+  switch (start) {
+    case NeighbourDepthOptions::Start::kOff: return "false";
+    case NeighbourDepthOptions::Start::kOn: return "true";
+    case NeighbourDepthOptions::Start::kAuto: break;
+  }
+  return "auto";
+}
+
+NeighbourDepthOptions::Start parseNeighbourStart(const std::string& text) {
+  if (text == "auto") return NeighbourDepthOptions::Start::kAuto;
+  try {
+    return parseSwitchText("start_from_neighbours", text) ? NeighbourDepthOptions::Start::kOn
+                                                          : NeighbourDepthOptions::Start::kOff;
+  } catch (const InputError&) {
+    throw InputError("option start_from_neighbours: '" + text + "' is not true, false or auto");
+  }
+}
 
 std::string NeighbourDepthOptions::validate() const {
   std::ostringstream why;
@@ -44,7 +66,7 @@ NeighbourDepthInputs attachNeighbourDepth(const KeyframeStore& store, int64_t id
     }
     return inputs;
   }
-  if (refinement || !options.start_from_neighbours) return inputs;
+  if (refinement || !options.startsFromNeighbours()) return inputs;
   std::vector<mvs::PlaneMapView> neighbours;
   for (int64_t source : sources) {
     const StoredKeyframe& stored = store.entry(source);

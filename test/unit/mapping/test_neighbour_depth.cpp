@@ -64,21 +64,54 @@ struct RecordingMapper {
   OnlineMapper mapper;
 };
 
-TEST(NeighbourDepth, OffByDefaultTheEstimatorGetsNoPriorAndNoDepthMaps) {
-  RecordingMapper recording(wallOptions());
-  recording.estimateThreeKeyframes();
-  KeyframeResult result;
-  ASSERT_TRUE(recording.mapper.refine(&result));
-  ASSERT_EQ(recording.calls.size(), 4u);
-  for (const Given& given : recording.calls) {
-    EXPECT_FALSE(given.prior);
-    EXPECT_TRUE(given.source_depths.empty());
+// By default (auto) a first estimate starts from the neighbours with the CPU
+// estimator and not with CUDA; switched off it never does; a refinement
+// never does, and gets no depth maps without the geometric refinement.
+TEST(NeighbourDepth, ByDefaultOnlyTheCpuEstimatorStartsFromTheNeighbours) {
+  struct Case {
+    NeighbourDepthOptions::Start start;
+    bool on_gpu;
+    bool expect_prior;
+  };
+  for (const Case& c : {Case{NeighbourDepthOptions::Start::kAuto, false, true},
+                        Case{NeighbourDepthOptions::Start::kAuto, true, false},
+                        Case{NeighbourDepthOptions::Start::kOff, false, false},
+                        Case{NeighbourDepthOptions::Start::kOn, true, true}}) {
+    SCOPED_TRACE(std::string(neighbourStartName(c.start)) + (c.on_gpu ? " on CUDA" : " on the CPU"));
+    OnlineMapperOptions options = wallOptions();
+    EXPECT_EQ(options.neighbour_depth.start_from_neighbours, NeighbourDepthOptions::Start::kAuto);
+    options.neighbour_depth.start_from_neighbours = c.start;
+    options.neighbour_depth.on_gpu = c.on_gpu;
+    RecordingMapper recording(options);
+    recording.estimateThreeKeyframes();
+    KeyframeResult result;
+    ASSERT_TRUE(recording.mapper.refine(&result));
+    ASSERT_EQ(recording.calls.size(), 4u);
+    EXPECT_FALSE(recording.calls[0].prior);  // its source has no depth map yet
+    for (size_t i = 1; i < 3; ++i) {
+      EXPECT_EQ(recording.calls[i].prior, c.expect_prior) << i;
+      if (c.expect_prior) EXPECT_EQ(recording.calls[i].prior_iterations, 2) << i;
+    }
+    EXPECT_FALSE(recording.calls[3].prior);  // the refinement
+    for (const Given& given : recording.calls) EXPECT_TRUE(given.source_depths.empty());
   }
+}
+
+TEST(NeighbourDepth, TheStartSwitchReadsTrueFalseAndAuto) {
+  using Start = NeighbourDepthOptions::Start;
+  EXPECT_EQ(parseNeighbourStart("auto"), Start::kAuto);
+  EXPECT_EQ(parseNeighbourStart("true"), Start::kOn);
+  EXPECT_EQ(parseNeighbourStart(""), Start::kOn);  // a bare command-line switch
+  EXPECT_EQ(parseNeighbourStart("0"), Start::kOff);
+  EXPECT_EQ(parseNeighbourStart("false"), Start::kOff);
+  for (Start start : {Start::kOff, Start::kOn, Start::kAuto})
+    EXPECT_EQ(parseNeighbourStart(neighbourStartName(start)), start);
+  EXPECT_INPUT_ERROR(parseNeighbourStart("sometimes"), "start_from_neighbours", "'sometimes' is not true, false or auto");
 }
 
 TEST(NeighbourDepth, NewKeyframeStartsFromItsSourcesDepthOnTheWall) {
   OnlineMapperOptions options = wallOptions();
-  options.neighbour_depth.start_from_neighbours = true;
+  options.neighbour_depth.start_from_neighbours = NeighbourDepthOptions::Start::kOn;
   options.neighbour_depth.start_iterations = 2;
   RecordingMapper recording(options);
   recording.estimateThreeKeyframes();

@@ -162,16 +162,21 @@ TEST_F(MapCliRoom, MapsTheRoomWithExactGroundTruth) {
   // 99.4 %, completeness 60.1 %; map 14894 points, 85.1 % within 2 cm and
   // 99.4 % within 5 cm of the true surface (before session 9, without
   // fusing the first keyframes again: published 99.0 % within 5 % at 43.8 %,
-  // map 13805 points, 85.5 / 99.3 %).
+  // map 13805 points, 85.5 / 99.3 %). Since the CPU estimate starts from the
+  // neighbours' depth maps (neighbour_depth/start_from_neighbours auto):
+  // depth 59.0 / 82.2 / 90.1 / 91.9 %, published 98.8 % within 5 % at 59.8 %,
+  // map 25332 points, 83.5 / 99.3 % (without it, at that commit: 58.8 / 82.0 /
+  // 90.3 / 92.1 %, 98.8 % at 59.6 %, 22892 points, 84.3 / 99.3 %): more
+  // points, the added ones a little less precise.
   EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_1pct"), 58) << summary;
   EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_5pct"), 89) << summary;
   EXPECT_GT(jsonNumber(summary, "depth_accuracy", "within_10pct"), 90) << summary;
   EXPECT_GT(jsonNumber(summary, "depth_accuracy", "completeness_pct"), 97) << summary;
   EXPECT_GT(jsonNumber(summary, "published_depth_accuracy", "within_5pct"), 98) << summary;
   EXPECT_GT(jsonNumber(summary, "published_depth_accuracy", "completeness_pct"), 40) << summary;
-  EXPECT_GT(jsonNumber(summary, "map", "within_2cm_pct"), 84) << summary;
+  EXPECT_GT(jsonNumber(summary, "map", "within_2cm_pct"), 83) << summary;
   EXPECT_GT(jsonNumber(summary, "map", "within_5cm_pct"), 98) << summary;
-  EXPECT_GT(jsonNumber(summary, "map", "points"), 12000) << summary;
+  EXPECT_GT(jsonNumber(summary, "map", "points"), 22000) << summary;
 }
 
 // The same room as the realism mode's default profile renders it (a handheld
@@ -227,9 +232,16 @@ TEST(MapCli, RoomWithTheDefaultRealismProfile) {
   // online default of 2 % (more points for the confidence-masked keyframes)
   // gives 8451 points, 59.4 / 96.3 % within 2 / 5 cm of the true surface here.
   // The summary of a run with pose refinement and `extra` options into `name`/.
+  // The estimate starts from random planes, as when these floors were
+  // measured: the comparisons below isolate the pose refinement and the
+  // rolling-shutter rectification. With the neighbours' depth as the start
+  // (the CPU default) the refined map is 67.8 % within 2 cm and the rectified
+  // one 66.8 %: the rectification's gain is gone there.
   const auto refinedRun = [&](const std::string& name, const std::string& extra) {
     return mapRunSummary(dir.file("room"), dir.file(name),
-                         settings + " --pose_refinement=1 --fusion_max_relative_depth_difference 0.01" + extra, true);
+                         settings + " --pose_refinement=1 --fusion_max_relative_depth_difference 0.01"
+                                    " --start_from_neighbours=false" + extra,
+                         true);
   };
   const std::string refined_summary = refinedRun("refined", "");
   // Measured (CPU): 50.3 / 76.4 / 90.3 / 92.2 % within 1/2/5/10 %,

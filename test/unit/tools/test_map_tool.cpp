@@ -153,7 +153,7 @@ TEST(MapTool, ParsesTheLowTextureAndNeighbourDepthSwitches) {
   EXPECT_EQ(defaults.pipeline.estimator.multiscale_levels, 2);
   EXPECT_EQ(defaults.pipeline.estimator.multiscale_iterations, 1);
   EXPECT_EQ(PatchMatchOptions().multiscale_levels, 1);
-  EXPECT_FALSE(defaults.pipeline.mapper.neighbour_depth.start_from_neighbours);
+  EXPECT_EQ(defaults.pipeline.mapper.neighbour_depth.start_from_neighbours, NeighbourDepthOptions::Start::kAuto);
   EXPECT_FALSE(defaults.pipeline.mapper.neighbour_depth.geometric_refinement);
   const MapToolOptions options = parseMapToolArguments(
       {"--multiscale", "3", "--multiscale_iterations=2", "--start_from_neighbours", "--start_iterations", "3",
@@ -161,7 +161,7 @@ TEST(MapTool, ParsesTheLowTextureAndNeighbourDepthSwitches) {
   EXPECT_EQ(options.pipeline.estimator.multiscale_levels, 3);
   EXPECT_EQ(options.pipeline.estimator.multiscale_iterations, 2);
   const NeighbourDepthOptions& neighbours = options.pipeline.mapper.neighbour_depth;
-  EXPECT_TRUE(neighbours.start_from_neighbours);
+  EXPECT_EQ(neighbours.start_from_neighbours, NeighbourDepthOptions::Start::kOn);
   EXPECT_EQ(neighbours.start_iterations, 3);
   EXPECT_EQ(neighbours.start_max_cost, 0.4);
   EXPECT_TRUE(neighbours.geometric_refinement);
