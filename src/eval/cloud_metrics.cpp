@@ -6,7 +6,6 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
-#include <tuple>
 
 #include "amhmvs_mapping/core/error.h"
 
